@@ -54,8 +54,8 @@ MALFORMED = {
     'missing-params-file': (['--params-file', '{missing}'], r'cannot start: .*params file'),
     # rclpy takes no integer for a double: the docs' "characteristic_length 0 (= radius)" typed as 0
     'integer-for-double': (['-p', 'characteristic_length:=0'], r"cannot start: .*'0' of type 'INTEGER', expecting type "
-                                                               r"'DOUBLE'.*; allowed: a floating-point value \(write "
-                                                               r'0\.0\)'),
+                                                               r"'DOUBLE'.*; allowed: a floating-point value from 0\.0 "
+                                                               r'to 100\.0 \(write 0\.0\)$'),
     # nor one number for an array (a geometry file's kappa: 1000.0): said so without 'allowed:' before
     'number-for-array': (['-p', 'kappa:=1000.0'], r"cannot start: .*'1000\.0' of type 'DOUBLE', expecting type "
                                                   r"'DOUBLE_ARRAY': kappa; allowed: a list of 3 numbers, one per "

@@ -15,11 +15,14 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType, SetParametersResult
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -55,11 +58,20 @@ def declare_parameters(node: Node, specs: Sequence[ParamSpec], read_only: bool =
 
     An empty array given on the command line (``-p topics:=[]``) has no type in ROS and arrives as ``None``; it
     is returned as an empty list. Raises :class:`~gpr_kinematics.errors.ConfigError` naming the parameter, its
-    value and what is allowed; rclpy's own ``ParameterException`` for a value of the wrong type or range.
+    value and what is allowed, also where rclpy refused a bounded number's type or range (its words, then the range:
+    ``allowed: a floating-point value from 0.1 to 5000.0, e.g. 100.0``; ``-p rate:=0`` was told to write 0.0); rclpy's
+    own ``ParameterException`` for another parameter's wrong type.
     """
     values: dict[str, Any] = {}
     for spec in specs:
-        value = node.declare_parameter(spec.name, spec.default, descriptor(spec, read_only)).value
+        try:
+            value = node.declare_parameter(spec.name, spec.default, descriptor(spec, read_only)).value
+        except ParameterException as exc:   # rclpy's refusal of the type or the range: a bounded number's range added
+            if spec.limits is None or spec.kind not in ('double', 'integer'):
+                raise
+            whole = re.search(r"to '(-?\d+)' of type 'INTEGER'", str(exc)) if spec.kind == 'double' else None
+            raise ConfigError(f'{exc}; allowed: {allowed_number(spec, int(whole.group(1)) if whole else None)}'
+                              ) from None
         if value is None and spec.kind.endswith('_array'):
             value = []
         if isinstance(value, (list, tuple)) or type(value).__name__ == 'array':
@@ -67,6 +79,17 @@ def declare_parameters(node: Node, specs: Sequence[ParamSpec], read_only: bool =
         spec.check(value)
         values[spec.name] = value
     return values
+
+
+def allowed_number(spec: ParamSpec, written: int | None = None) -> str:
+    """What a bounded number parameter takes, with an example: ``written``, an integer given to a double, as the
+    double to write where it is in range, else the default (``a floating-point value from 0.1 to 5000.0, e.g.
+    100.0``)."""
+    lo, hi = spec.limits or (-math.inf, math.inf)
+    noun = 'a floating-point value' if spec.kind == 'double' else 'an integer'
+    if written is not None and lo <= written <= hi:
+        return f'{noun} from {lo!r} to {hi!r} (write {written}.0)'
+    return f'{noun} from {lo!r} to {hi!r}, e.g. {spec.default!r}'
 
 
 def unknown_overrides(node: Node) -> list[str]:

@@ -75,7 +75,10 @@ _ONE_FOR_ARRAY = re.compile(r"to '([^']*)' of type '\w+', expecting type '(DOUBL
 
 def type_hint(error: str) -> str:
     """The 'allowed:' rclpy's refusal of a parameter's type leaves out (``''`` for another error): a double written
-    as an integer; a list for an array parameter (every double array is per rod: 3 values)."""
+    as an integer; a list for an array parameter (every double array is per rod: 3 values). A refusal that says what
+    is allowed already (a bounded number's, :func:`~.params.declare_parameters`) gets nothing more."""
+    if '; allowed: ' in error:
+        return ''
     whole = _INTEGER_FOR_DOUBLE.search(error)
     if whole:
         return f'; allowed: a floating-point value (write {whole.group(1)}.0)'
@@ -121,6 +124,11 @@ class StoppedAtStartError(Exception):
 def stop_requested() -> bool:
     """Whether SIGINT or SIGTERM arrived during the run under way (False outside :func:`run`)."""
     return bool(_STOP) and bool(_STOP[-1])
+
+
+def stop_signal() -> str:
+    """The name of the first stop signal of the run under way (``SIGINT``, ``SIGTERM``; '' if none)."""
+    return signal.Signals(_STOP[-1].signals[0]).name if _STOP and _STOP[-1].signals else ''
 
 
 def numbers_from_text(node: Node, params: list[Parameter]) -> list[Parameter]:

@@ -31,7 +31,8 @@ serves the action ``gpr/run_program`` (gpr_interfaces/RunProgram: a program file
 stations; feedback per sample; cancel stops before the next sample) whenever no stream is running. A stream is
 precomputed with the batch API (:mod:`.streams`) before its first sample; a wall timer at ``rate`` [Hz] then
 publishes one sample per tick. A start-up stream ends the node with status 0 after its last sample unless
-``loop`` is true (then it starts over; the sample counter keeps counting); ``idle`` runs until SIGINT/SIGTERM.
+``loop`` is true (then it starts over; the sample counter keeps counting; a program must end where it starts,
+:func:`~gpr_kinematics.ros.stream_limits.loop_refusal`); ``idle`` runs until SIGINT/SIGTERM.
 
 The action is served by threads of its own (a ``MultiThreadedExecutor``; the action server's callbacks in a
 callback group apart from the timer's, a goal planned in the executing thread): while one goal is planned or
@@ -57,6 +58,7 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor, MultiThreadedExecutor
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -70,6 +72,7 @@ from ..errors import ConfigError, GprError
 from ..robot.markers import marked, marker_array
 from ..robot.program import RobotProgram, load_any_program, program_robot
 from ..ros.specs import TRAJECTORY, check_frame_names, check_frame_prefix
+from ..ros.stream_limits import loop_refusal, sweep_beyond_rod_limits
 from ..ros.streams import (
     GoalFiles,
     Trajectory,
@@ -89,9 +92,11 @@ from .runtime import (
     finish_callbacks,
     one_line,
     run,
+    stop_signal,
     tell,
     wait_acknowledged,
 )
+from .trajectory_watch import WATCH_PERIOD, ClockWatch, GoalEnd, published_text, station_name, where
 
 NODE_NAME = 'trajectory_node'
 #: Time [s] the subscribers waited for must stay in place before the first sample (see :meth:`TrajectoryNode._ready`).
@@ -104,32 +109,6 @@ STREAM_TOPICS: dict[str, Any] = {Topic.PLATFORM_STATE: PlatformState, Topic.PLAT
 ROBOT_STREAM_TOPICS: dict[str, Any] = {Topic.ROBOT_STATE: RobotState, Topic.WAFER_POSE: PoseStamped}
 #: Threads of the node's executor: the timer, the action server's requests, a goal being planned or run, one spare.
 THREADS = 4
-
-
-class GoalEnd:
-    """How a goal's stream ended, set once by the stream (:meth:`TrajectoryNode._end`) and awaited by the thread
-    that executes the goal."""
-
-    def __init__(self) -> None:
-        self._event = threading.Event()
-        self.outcome: tuple[str, str, int, int] = ('failed', '', 0, 0)
-
-    def set_result(self, outcome: tuple[str, str, int, int]) -> None:
-        self.outcome = outcome
-        self._event.set()
-
-    def wait(self) -> tuple[str, str, int, int]:
-        self._event.wait()
-        return self.outcome
-
-
-def published_text(published: int, elapsed: float | None, rate: float) -> str:
-    """What a stream published, in how long and at what rate [Hz]; a stream of fewer than two samples has no rate
-    (one cancelled before its first sample read 'published 0 samples in -0.000 s (achieved nan Hz, ...)')."""
-    if elapsed is None or published < 2 or elapsed <= 0.0:
-        return f'published {published} sample{"" if published == 1 else "s"}'
-    return (f'published {published} samples in {elapsed:.3f} s (achieved {(published - 1) / elapsed:.3f} Hz, '
-            f'requested {rate} Hz)')
 
 
 class TrajectoryNode(GprNode):
@@ -186,16 +165,22 @@ class TrajectoryNode(GprNode):
         self.period = 1.0 / float(p['rate'])
         self.timer = self.create_timer(self.period, self._tick)
         self.timer.cancel()
+        self._paced: tuple[float, float] = (0.0, 0.0)   # the pace clock's last reading; seconds before a set-back
+        self.clock_watch = ClockWatch()   # a cancel, and simulated time that does not come (on the steady clock)
+        self.create_timer(WATCH_PERIOD, self._watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.action = ActionServer(self, RunProgram, Service.RUN_PROGRAM, execute_callback=self._execute,
                                    goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
                                    callback_group=MutuallyExclusiveCallbackGroup(), feedback_pub_qos_profile=qos,
                                    **action_server_options())
         t0 = time.perf_counter()
-        if p['mode'] == 'sweep':
-            traj = sweep_trajectory(self.cfg, p['height'], p['max_tilt'], p['tilt_step'], p['azimuth_step'],
-                                    p['passes'])
+        if p['mode'] == 'sweep':   # a step beyond the rods' velocity at the rate is warned (as a program's move)
+            traj = sweep_beyond_rod_limits(sweep_trajectory(self.cfg, p['height'], p['max_tilt'], p['tilt_step'],
+                                                            p['azimuth_step'], p['passes']),
+                                           self.robot.rods, float(p['rate']), bool(p['loop']))
         elif program is not None:
             traj = trajectory_of(program, self.robot, p['rate'], p['move_time'])
+            if p['loop'] and (refusal := loop_refusal(traj, self.robot, float(p['rate']))):   # a jump back
+                raise ConfigError(refusal)
         else:
             self.get_logger().info(f'idle: serving gpr/run_program at {p["rate"]} Hz (model {self.cfg.model})')
             return
@@ -217,6 +202,7 @@ class TrajectoryNode(GprNode):
         self.started_at = None
         self._wait_start = time.monotonic()
         self._ready_since = None
+        self.clock_watch.reset(self.get_clock().now().nanoseconds, self._wait_start)
         self.timer.reset()
 
     def stream_topics(self) -> tuple[Any, ...]:
@@ -265,10 +251,17 @@ class TrajectoryNode(GprNode):
                 return
             self.started_at = self.pace_clock()
             self.sent = 0
+            self._paced = (self.started_at, 0.0)
             self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
                                    f'({"goal" if self.goal else self.p["mode"]}'
                                    f'{", looping" if self.p["loop"] and not self.goal else ""})')
         now, start = self.pace_clock(), self.started_at   # (a simulated clock may start at 0.0)
+        if start is not None and now < self._paced[0] - self.period:   # a simulated clock set back: the rest of the
+            self._paced = (now, self._paced[1] + self._paced[0] - start)   # stream from now on, at its rate
+            self.get_logger().info(f'the simulated clock went back to {now:.3f} s: the stream goes on from sample '
+                                   f'{self.index} of {len(self.stream)} at its rate from there')
+            self.started_at, start, self.sent = now, now, 0
+        self._paced = (now, self._paced[1])
         due = int((now - (now if start is None else start)) / self.period) + 1
         for _ in range(max(1, min(due - self.sent, self.catch_up()))):
             # under a simulated clock each sample at its own instant (a clock in steps: not a burst of one instant)
@@ -280,7 +273,7 @@ class TrajectoryNode(GprNode):
     def _step(self, traj: Trajectory) -> bool:
         """Publish sample ``index`` of ``traj`` (and its feedback); False once the stream ended."""
         if self.goal is not None and self.goal.is_cancel_requested:
-            self._end('cancelled', f'cancelled before sample {self.index} of {len(traj)} ({self._where(traj)})')
+            self._end('cancelled', f'cancelled before sample {self.index} of {len(traj)} ({where(traj, self.index)})')
             return False
         if self._record_due:   # after the cancel: a stream that publishes no sample publishes no record
             self._record_due = False
@@ -298,7 +291,7 @@ class TrajectoryNode(GprNode):
         if self.goal is not None:
             self.goal.publish_feedback(RunProgram.Feedback(
                 sample_index=self.index, sample=self.sample, station=traj.station[self.index],
-                station_name=self._station_name(traj, self.index)))
+                station_name=station_name(traj, self.index)))
         self.index += 1
         self.sample += 1
         self.sent += 1
@@ -310,27 +303,26 @@ class TrajectoryNode(GprNode):
                 return False
         return True
 
-    @staticmethod
-    def _station_name(traj: Trajectory, i: int) -> str:
-        k = traj.station[i] if i < len(traj) else -1
-        return traj.station_names[k] if k >= 0 else ''
-
-    def _where(self, traj: Trajectory) -> str:
-        i = self.index
-        if not traj.station_names:
-            return 'sweep'
-        unit = traj.unit
-        if i < len(traj) and traj.station[i] >= 0:
-            return f'at {unit} {traj.station[i]} ({self._station_name(traj, i)})'
-        # the sample's own target (the largest station passed was 0 where no sample fell on a station: dwell 0)
-        to = traj.target[min(i, len(traj) - 1)] if traj.target else 1
-        return f'moving from {unit} {to - 1} to {unit} {to}'
+    def _watch(self) -> None:
+        """On the steady clock (:mod:`.trajectory_watch`): end a cancelled goal's stream at once (its timer runs on
+        the ROS clock, which a paused simulation stops), and say where a stream waits for simulated time."""
+        traj = self.stream
+        if traj is None:
+            return
+        if self.goal is not None and self.goal.is_cancel_requested:
+            self._step(traj)   # ends it: 'cancelled before sample k of n (...)'
+        elif self.simulated:
+            what = 'goal' if self.goal is not None else self.p['mode']
+            said = self.clock_watch.check(self.get_clock().now().nanoseconds, time.monotonic(),
+                                          f'the {what} stream (before sample {self.index} of {len(traj)})')
+            if said is not None:
+                tell(self.get_logger(), *said)
 
     def _end(self, outcome: str, message: str) -> None:
         self.timer.cancel()
         published = self.index
         if outcome != 'stopped':
-            elapsed = None if self.started_at is None else self.pace_clock() - self.started_at
+            elapsed = None if self.started_at is None else self.pace_clock() - self.started_at + self._paced[1]
             self.get_logger().info(f'finished: {published_text(published, elapsed, self.p["rate"])}'
                                    + ('' if outcome == 'succeeded' else f': {message}'))
         with self._lock:  # on_exit may end a goal's stream while the timer's thread ends it too
@@ -428,7 +420,16 @@ class TrajectoryNode(GprNode):
         at most 2 s each); a stop signal leaves at once."""
         with self._lock:
             self._closing = True
-        goal = self.goal if self.stream is not None and self._goal_done is not None else None
+        traj = self.stream
+        if traj is not None and self.signalled:   # where the stream stopped (a goal's client gets it in its result)
+            looping = self.goal is None and self.p['loop']
+            published = self.sample if looping else self.index   # (a start-up stream counts from 0)
+            elapsed = None if self.started_at is None else self.pace_clock() - self.started_at + self._paced[1]
+            self.get_logger().info(f'finished: {published_text(published, elapsed, self.p["rate"])}: stopped by '
+                                   f'{stop_signal() or "a signal"} at sample {self.index} of {len(traj)}'
+                                   f'{f" (pass {self.sample // len(traj) + 1})" if looping else ""}: the node is '
+                                   'shutting down')
+        goal = self.goal if traj is not None and self._goal_done is not None else None
         if goal is not None:  # the thread executing the goal returns, and its client hears the result
             self._end('stopped', 'the node is shutting down')
             deliver_results(executor, [goal])
