@@ -138,7 +138,7 @@ def test_human_readable_output(capsys):
     (['fk', '0.3', '0.3', '0.3', '--config', ''], 'config file path is empty'),   # was silently ignored
     (['ik', '--height', '500', '--tilt', '0', '--azimuth', '0'], r'height = 500 m puts a rod outside the stroke'),
     (['compensate', '--height', '0.4', '--tilt', '0.01', '--azimuth', '0', '--tool', '300', '0', '100'],
-     r'tool_offset = \(300, 0, 100\) m is beyond the reach of a tool point'),
+     r'--tool = \(300, 0, 100\) m is beyond the reach of a tool point .*\(gpr_platform\) \(millimetres\? give --mm\)$'),
     (['mobility', '0.5', '0.5', '0.5', '--dq', '1e308', '0', '0', '--json'],
      r'q1 \+ dq1 = 1e\+308 m is outside the stroke'),
     (['sweep', '--height', '-1e308'], r'height = -1e\+308 m puts a rod outside the stroke'),

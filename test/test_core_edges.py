@@ -29,7 +29,7 @@ def test_compensation_takes_a_command_exactly_at_the_tilt_limit_at_every_azimuth
         assert c.achieved.tilt == pytest.approx(LIMIT, abs=1e-12)
     beyond = quaternion_from_matrix(tilt_rotation(LIMIT + 2 * TILT_LIMIT_SLACK, 0.7))
     with pytest.raises(LimitError, match=r'commanded tilt 0\.034906587 rad \(2\.0000001\d* deg\) is beyond the '
-                                         r'tilt limit 0\.034906585 rad \(2 deg\)'):
+                                         r'tilt limit; allowed: a commanded tilt <= 0\.034906585 rad \(2 deg\)'):
         compensate((0.0, 0.0, 0.4), beyond)
 
 
@@ -131,9 +131,10 @@ def test_the_command_line_reads_millimetres_exactly(capsys):
     (['mobility', '0.3', '0.3', '0.3', '--dq', '0.2080000000001', '0', '0'],
      'q1 + dq1 = 0.5080000000001 m is outside the stroke [0, 0.508] m'),
     (['ik', '--height', '0.25', '--tilt', '2.00000006', '--azimuth', '0', '--deg'],
-     'tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit 0.034906585 rad (2 deg)'),
+     '--tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)'),
     (['sweep', '--max-tilt', '2.00000006', '--deg'],
-     'max_tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit 0.034906585 rad (2 deg)')])
+     '--max-tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit; allowed: --max-tilt <= 0.034906585 rad '
+     '(2 deg)')])
 def test_a_refusal_prints_the_value_apart_from_its_limit(capsys, argv, message):
     """"0.508 m is outside the stroke [0, 0.508] m" contradicted itself; the value takes the digits that tell it
     from the limit it passed (:func:`~gpr_kinematics.errors.apart`)."""

@@ -245,7 +245,8 @@ def test_unknown_model_and_limits_of_inverse():
         forward([0.3, 0.3, 0.3], model='x' * 700)
     assert str(err.value) == (f"unknown virtual-joint model '{'x' * 59}... (700 characters); allowed: radial, polar, "
                               "offset, compliant, or None or '' for the configuration's model (radial)")
-    with pytest.raises(LimitError, match=r'tilt = .* \(3 deg\) is beyond the tilt limit .* \(2 deg\)'):
+    with pytest.raises(LimitError, match=r'tilt = .* \(3 deg\) is beyond the tilt limit; allowed: '
+                                         r'\|tilt\| <= .* \(2 deg\)$'):
         inverse(0.3, math.radians(3.0), 0.0)
     with pytest.raises(LimitError, match='outside the stroke'):
         inverse(0.507, math.radians(2.0), 0.3)

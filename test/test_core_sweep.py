@@ -101,7 +101,8 @@ def test_sample_counts_are_refused_before_anything_is_allocated(kwargs, pattern)
 
 
 def test_hostile_heights_and_tilts_are_named_before_the_solve():
-    with pytest.raises(LimitError, match=r'max_tilt = 1e\+300 rad .* is beyond the tilt limit 0\.034906585 rad'):
+    with pytest.raises(LimitError, match=r'max_tilt = 1e\+300 rad .* is beyond the tilt limit; allowed: '
+                                         r'max_tilt <= 0\.034906585 rad \(2 deg\)$'):
         paper_sweep(max_tilt=1e300)
     with warnings.catch_warnings():
         warnings.simplefilter('error')   # no overflow on the way to the message

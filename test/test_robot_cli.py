@@ -304,7 +304,7 @@ def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monk
     joints ...'): not the names waited on (/r3/...), nor how to change them. The ROS client is stood in for here
     (test_ros_program_send runs the real one); the names are expanded by rclpy's rules."""
     pytest.importorskip('rclpy')
-    from gpr_kinematics.cli import program as cli_program
+    from gpr_kinematics.cli import program_send as cli_program
     from gpr_kinematics.robot.controller import ControllerJoints
 
     seen = {}

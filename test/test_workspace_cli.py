@@ -108,8 +108,8 @@ def test_overrides_grid_method_and_time_limit(capsys):
 
 
 @pytest.mark.parametrize('argv, match', [
-    (['shell_arm.yaml', '--delta', '0'], '--delta must be a positive'),
-    (['shell_arm.yaml', '--delta', '-1'], '--delta must be a positive'),
+    (['shell_arm.yaml', '--delta', '0'], '--delta = 0 is invalid; allowed: a positive number (m, or mm with --mm)\n'),
+    (['shell_arm.yaml', '--delta', '-1'], '--delta = -1 is invalid; allowed: a positive number'),
     (['shell_arm.yaml', '--delta', '1e-30'], 'too small'),
     (['no_such_file.yaml', '--delta', '0.1'], 'not found'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1'], 'KEY=VALUE'),
@@ -181,7 +181,8 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_boxes(tmp_path, signum, status):
     stderr = seen + stderr
     assert proc.returncode == status, stderr
     data = json.loads(stdout)
-    assert data['interrupted'] and 'interrupted' in stderr
+    word = 'terminated' if signum == 15 else 'interrupted'   # SIGTERM's stop says so, as every command's (README)
+    assert data['interrupted'] and word in data['stopped'].split('; ') and f'gpr workspace: {word}' in stderr, stderr
     # the default scheduler: the run was cut into parts on a Dask local cluster when it was stopped
     import importlib.util
     assert data['cluster_used'] == (importlib.util.find_spec('distributed') is not None)
@@ -283,7 +284,9 @@ def test_output_paths_are_checked_before_the_run(tmp_path, capsys):
                                                 '--scheduler local only'),
     (['--workers', '0'], '--workers = 0; allowed: an integer from 1 to 256'),
     (['--max-boxes', '0'], '--max-boxes = 0; allowed: a whole number of boxes, at least 1'),
-    (['--parts', '0'], '--parts must be from 1'),
+    (['--parts', '0'], '--parts = 0 is invalid; allowed: an integer from 1 to 100000\n'),
+    (['--method', 'grid', '--grid-nodes', '1'], '--grid-nodes = 1 is invalid; allowed: an integer of at least 2 '
+                                                '(nodes per box edge)\n'),
     # options of another method or scheduler ran without a word
     (['--grid-nodes', '5'], '--grid-nodes belongs to --method grid; allowed with --method covering: no --grid-nodes'),
     (['--scheduler', 'none', '--parts', '5'], '--parts cuts a run for the workers of a Dask scheduler'),
@@ -457,16 +460,22 @@ def test_the_3upu_study_volumes_of_the_docs_need_its_box(capsys, box, volumes):
     assert (round(float(m[1]) * 1000, 2), round(float(m[2]) * 1000, 2)) == volumes
 
 
-@pytest.mark.parametrize('stopped, caught, status', [
-    ('box limit (100 boxes, shared among the parts); interrupted', None, 130),   # the parts' reasons joined
-    ('box limit (100 boxes, shared among the parts); interrupted', 15, 143),
-    ('interrupted', None, 130),
-    ('time limit (1 s)', None, 0),
-    ('box limit (100 boxes)', None, 0),
+@pytest.mark.parametrize('stopped, caught, status, said', [
+    ('box limit (100 boxes, shared among the parts); interrupted', None, 130,
+     'box limit (100 boxes, shared among the parts); interrupted'),   # the parts' reasons joined
+    ('box limit (100 boxes, shared among the parts); interrupted', 15, 143,
+     'box limit (100 boxes, shared among the parts); terminated'),
+    ('interrupted', None, 130, 'interrupted'),
+    ('interrupted', 15, 143, 'terminated'),
+    ('interrupted', 2, 130, 'interrupted'),
+    ('time limit (1 s)', None, 0, 'time limit (1 s)'),
+    ('box limit (100 boxes)', None, 0, 'box limit (100 boxes)'),
 ])
-def test_the_status_of_a_stop_by_a_signal_whatever_else_stopped_parts(capsys, monkeypatch, stopped, caught, status):
+def test_the_status_of_a_stop_by_a_signal_whatever_else_stopped_parts(capsys, monkeypatch, stopped, caught, status,
+                                                                       said):
     """A signal exited 0 where the run's parts had stopped for several reasons ('...; interrupted'): 130 or 143 with
-    the proved boxes written, as alone; a limit's stop exits 0."""
+    the proved boxes written, as alone; a limit's stop exits 0. SIGTERM's stop says ``terminated`` (it said
+    ``interrupted``, where every other command stopped by SIGTERM says ``terminated``)."""
     import dataclasses
 
     from gpr_kinematics.cli import workspace as ws
@@ -479,8 +488,11 @@ def test_the_status_of_a_stop_by_a_signal_whatever_else_stopped_parts(capsys, mo
         return dataclasses.replace(result, interrupted=True, stopped=stopped)
 
     monkeypatch.setattr(ws, 'approximate', stopped_run)
-    code, out, _ = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', '--json')
-    assert code == status and json.loads(out)['stopped'] == stopped
+    code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', '--json')
+    assert code == status and json.loads(out)['stopped'] == said
+    if status:
+        word = 'terminated' if caught == 15 else 'interrupted'
+        assert err.startswith(f'gpr workspace: {word}{"" if said == word else f" ({said})"} after '), err
 
 
 def _children(pid):

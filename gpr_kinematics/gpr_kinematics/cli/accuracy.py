@@ -43,7 +43,18 @@ from ..inputs.safe_yaml import YamlValue
 from ..inputs.units import metres
 from ..mechanisms.base import ANGULAR_JOINTS, Mechanism
 from .mechanism import mechanism_options
-from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose, named_file, number, png_plot, shipped, whole
+from .options import (
+    CONVENTIONS,
+    finite,
+    mechanism_of,
+    mechanism_pose,
+    named_file,
+    number,
+    png_plot,
+    pose_tilt,
+    shipped,
+    whole,
+)
 from .output import emit_json
 from .progress import add_no_progress, progress_line
 
@@ -59,7 +70,7 @@ DEFAULT_SAMPLES = 10_000
 
 def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float]) -> None:
     """The budget's options of ``gpr accuracy`` (module docstring)."""
-    from ..calibration.budget import MAX_SAMPLES
+    from ..calibration.budget import MAX_POSES, MAX_SAMPLES
     from ..core.config import MODELS
     g = p.add_argument_group('accuracy budget (docs/calibration.md)')
     g.add_argument('--tolerances', metavar='TABLE', type=shipped(TOLERANCES),
@@ -68,7 +79,8 @@ def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float
                    help='tool point in gpr_platform [m, or mm with --mm] (default the origin; a robot program: the '
                         'wafer centre)')
     g.add_argument('--samples', type=whole, metavar='N',
-                   help=f'Monte Carlo samples (default {DEFAULT_SAMPLES}; 0: linearised only; at most {MAX_SAMPLES})')
+                   help=f'Monte Carlo samples (default {DEFAULT_SAMPLES}; 0: linearised only; at most {MAX_SAMPLES}, '
+                        f'and samples x stations at most {MAX_POSES} for a program)')
     g.add_argument('--seed', type=whole, metavar='S', help='seed of the Monte Carlo draws (default 0)')
     g.add_argument('--config', metavar='FILE', help='GPR geometry (e.g. a calibrated file) instead of the default')
     g.add_argument('--robot', metavar='FILE', type=shipped(ROBOTS),
@@ -190,6 +202,7 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: Sta
     if args.deg:
         pose[3:] = [math.radians(v) for v in pose[3:]]
     config = _gpr_config(args, data.get('overrides')) if args.config is not None else mech.config
+    pose_tilt(args, pose[3], pose[4], config)   # named as typed, with the hint of degrees typed as radians
     tilt, azimuth = math.hypot(pose[3], pose[4]), math.atan2(pose[4], pose[3])
     return (platform_budget(config, table, pose[2], tilt, azimuth, _tool(args), None, options),
             f'{mech.name}: height {pose[2]:g} m, tilt {tilt:.6g} rad about the axis at azimuth {azimuth:.6g} rad')
@@ -237,8 +250,9 @@ def _joint_errors(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
         return np.zeros(mech.n_joints) if deformations is None else np.asarray(deformations, dtype=float)
     errors = np.array(args.errors, dtype=float)
     if errors.size != mech.n_joints:
-        raise InputError(f'--errors takes {mech.n_joints} values ({", ".join(mech.joint_names)}); '
-                         f'got {errors.size}')
+        raise InputError(f'--errors has {errors.size} values in all; allowed: {mech.n_joints} '
+                         f'({", ".join(mech.joint_names)}), one per joint (the values of every --errors joined in '
+                         'order)')
     ang = np.array([t in ANGULAR_JOINTS for t in mech.joint_types])
     if args.mm:
         errors[~ang] = metres(errors[~ang], True)
@@ -355,7 +369,9 @@ def register(subparsers: Subparsers) -> None:
     mechanism_options(p, False, 'mechanism YAML (config/mechanisms/*.yaml); with --tolerances also a platform or '
                       'robot program')
     p.add_argument('--errors', nargs='+', action='extend', type=finite, metavar='E',
-                   help='one error per joint in file order (m, rad for angular joints; repeatable, the values add up)')
+                   help='one error per joint in file order (m, rad for angular joints); repeatable: the values of '
+                        'every --errors are joined in order (--errors E1 E2 E3 --errors E4 E5 E6), one per joint in '
+                        'all, as --free of gpr calibrate joins its names')
     p.add_argument('--parameter-error', nargs='+', action='append', metavar='NAME V',
                    help='geometric error: parameter name and its values, e.g. A_i (18 values, m) for a '
                    'Stewart platform, joint_imperfections (9 values, m) for the GPR; repeatable')

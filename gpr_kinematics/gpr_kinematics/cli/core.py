@@ -16,9 +16,9 @@ import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
 from ..core.virtual_joints import EDGE_NAMES
-from ..errors import InputError, apart
+from ..errors import InputError, LimitError, apart
 from ..inputs.units import metres
-from .options import direction, number, rod_lengths, vec, whole
+from .options import direction, number, rod_lengths, typed_tilt, vec, whole
 from .output import emit_json, json_object
 
 if TYPE_CHECKING:
@@ -96,11 +96,26 @@ def _add_target(p: argparse.ArgumentParser, command: bool = False) -> None:
                    'platform point (in gpr_platform) whose height is prescribed [m, or mm]; default origin')
 
 
+def _tool(args: argparse.Namespace) -> list[float]:
+    """``--tool`` in metres (``--mm`` converted), refused beyond a tool point's reach as the option (``compensate``
+    named the library's ``tool_offset``), with the hint of millimetres typed as metres where they would be within it."""
+    from ..core.inverse import TOOL_REACH, check_tool_point
+    tool = [_length(args, v) for v in args.tool]
+    try:
+        check_tool_point(tool, '--tool')
+    except LimitError as exc:
+        mm = not args.mm and math.hypot(*tool) / 1000.0 <= TOOL_REACH
+        raise LimitError(f'{exc}{" (millimetres? give --mm)" if mm else ""}') from None
+    return tool
+
+
 def _cmd_ik(args: argparse.Namespace) -> int:
     from ..core import inverse
     cfg = _config(args)
-    tool = [_length(args, v) for v in args.tool]
-    ik = inverse(_length(args, args.height), _angle(args, args.tilt), direction(args, args.azimuth, '--azimuth'),
+    tool = _tool(args)
+    tilt = _angle(args, args.tilt)
+    typed_tilt(args, '--tilt', tilt, args.tilt, cfg)   # named as the option, with the hint of degrees as radians
+    ik = inverse(_length(args, args.height), tilt, direction(args, args.azimuth, '--azimuth'),
                  config=cfg, model=args.model, tool=tool)
     if args.json:
         emit_json(ik)
@@ -119,9 +134,11 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
     # The command is built from the typed angles: check them by name before they become a quaternion.
     tilt = direction(args, args.tilt, '--tilt')   # 2pi - 0.02 is -0.02 once a rotation: within a turn
     azimuth, heading = (direction(args, getattr(args, n), f'--{n}') for n in ('azimuth', 'heading'))
+    # the tilt of the command's normal, as compensation checks it (2pi - 0.02 rad tilts it 0.02 rad)
+    typed_tilt(args, '--tilt', tilt, args.tilt, cfg, tilt=abs(math.remainder(tilt, 2.0 * math.pi)))
     R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
-    res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R),
-                     [_length(args, v) for v in args.tool], config=cfg, model=args.model)
+    res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R), _tool(args), config=cfg,
+                     model=args.model)
     if args.json:
         emit_json(res)
         return 0
@@ -206,10 +223,28 @@ def _check_sweep_options(args: argparse.Namespace, cfg: GprConfig) -> None:
         raise InputError(f'--passes = {args.passes}; allowed: an integer from 1 to {sweep.MAX_PASSES}')
     if args.azimuth_step is not None:   # beyond a turn: degrees typed as radians, as a typed direction
         direction(args, args.azimuth_step, '--azimuth-step')
+        _divides_a_turn(args, args.azimuth_step)
     if args.tilt_step is not None and not args.deg and args.tilt_step > cfg.tilt_limit:   # 0.2 meant 0.2 deg
         shown, limit = apart(args.tilt_step, cfg.tilt_limit)
         raise InputError(f'--tilt-step = {shown} rad is more than the tilt limit {limit} rad '
                          f'({math.degrees(cfg.tilt_limit):g} deg); allowed: a step within it (give --deg for degrees)')
+
+
+def _divides_a_turn(args: argparse.Namespace, typed: float) -> None:
+    """Refuse an ``--azimuth-step`` that is not a whole part of a turn, within the tilt step's tolerance (1e-9 of the
+    count; :func:`~gpr_kinematics.core.sweep.sweep_grid`): 7 deg swept 52 azimuths, 0 to 357 deg, and left a gap of
+    3 deg before 360 without a word. Named as typed, with the nearest steps that divide a turn."""
+    unit, turn = ('deg', 360.0) if args.deg else ('rad', 2.0 * math.pi)
+    count = turn / typed   # at least 1: a step beyond a turn was refused
+    more = max(1, math.ceil(count - 1e-9))   # the azimuths the sweep makes (sweep_grid's count)
+    if abs(count - more) <= 1e-9 * max(1.0, count):
+        return
+    fewer = max(1, more - 1)
+    last = (more - 1) * typed
+    raise InputError(f'--azimuth-step = {typed:g} {unit} does not divide a turn: its {more} azimuths from 0 to '
+                     f'{last:.6g} {unit} leave {turn - last:.6g} {unit} before {"360 deg" if args.deg else "2pi rad"}; '
+                     f'allowed: a step that divides a turn a whole number of times, the nearest {turn / more:.12g} '
+                     f'{unit} ({more} azimuths) or {turn / fewer:.12g} {unit} ({fewer})')
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -227,6 +262,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     _check_sweep_options(args, cfg)
     max_tilt, tilt_step = (given(args.max_tilt, _angle, sweep.DEFAULT_MAX_TILT),
                            given(args.tilt_step, _angle, sweep.DEFAULT_TILT_STEP))
+    if args.max_tilt is not None:   # named as the option, with the hint of degrees typed as radians
+        typed_tilt(args, '--max-tilt', max_tilt, args.max_tilt, cfg, allowed='--max-tilt')
     # named as typed, in the unit typed (the core's messages name its parameters in radians)
     unit = 'deg' if args.deg else 'rad'
     typed = [v if v is not None else (math.degrees(d) if args.deg else d) for v, d in

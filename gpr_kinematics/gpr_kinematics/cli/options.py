@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..core.config import MODELS
-from ..errors import FileError, InputError, apart, brief
+from ..core.config import MODELS, GprConfig
+from ..errors import FileError, InputError, LimitError, apart, brief
 from ..inputs.resources import ROBOTS, Packaged, packaged_file
 from ..inputs.units import metres
 from ..inputs.validation import TURN, beyond_turn, decimal, finite_number, number_hint
@@ -22,6 +22,7 @@ from ..mechanisms.base import Mechanism, as_poses
 
 if TYPE_CHECKING:
     from ..robot.description import RobotDescription
+    from ..robot.plan import ProgramPlan
     from ..robot.program import RobotProgram
 
 #: The pose convention of ``gpr mechanism``, ``accuracy`` and ``dexterity`` (their help epilog).
@@ -173,7 +174,17 @@ def mechanism_pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
     as_poses(pose, '--pose')  # the position's bound, named as the option
     if mech.kind == 'upu3' and np.any(pose[3:] != 0):
         raise InputError(f'{mech.name} only translates: the angles A B C must be 0; got {pose[3:].tolist()}')
+    from ..mechanisms.gpr import GprMechanism
+    if isinstance(mech, GprMechanism):   # the tilt the core refuses, with the hint of degrees typed as radians
+        pose_tilt(args, float(pose[3]), float(pose[4]), mech.config)
     return pose
+
+
+def pose_tilt(args: argparse.Namespace, a: float, b: float, config: GprConfig) -> None:
+    """The GPR's ``--pose X Y Z A B C``'s tilt vector ``A B`` [rad] (``--deg`` converted): its norm refused beyond the
+    tilt limit by :func:`typed_tilt`, named ``--pose tilt |(A, B)|``."""
+    typed_a, typed_b = args.pose[3], args.pose[4]
+    typed_tilt(args, '--pose tilt |(A, B)|', math.hypot(a, b), math.hypot(typed_a, typed_b), config, allowed='|(A, B)|')
 
 
 def robot_of(args: argparse.Namespace, default: Path | None = None) -> RobotDescription:
@@ -197,6 +208,31 @@ def named_file(program: RobotProgram, key: str, given: Path | None) -> Path | No
         why = 'does not exist' if exc.errno == errno.ENOENT else f'cannot be read ({os.strerror(exc.errno or 0)})'
     raise FileError(f'{program.source}: {key} file {str(path)!r} (named by the program, relative to its folder) '
                     f'{why}; allowed: an existing file, or --{key} FILE')
+
+
+def program_plan(args: argparse.Namespace, rate: float | None = None
+                 ) -> tuple[RobotProgram, ProgramPlan]:
+    """The program of ``gpr program``'s PROGRAM (with ``--robot``, ``--config``, ``--model``) and its plan; with
+    ``rate``, its samples at that rate bounded before it is planned and again, by its moves' least times, before its
+    moves are timed (:func:`~gpr_kinematics.robot.plan.plan_program`). The cell the program names is an input too,
+    read or not: no output may replace it."""
+    from ..inputs.files import note_input
+    from ..robot.plan import check_sample_count, plan_program
+    from ..robot.program import GIVEN_ROBOT, load_program, program_robot
+    program = load_program(args.program)
+    robot = named_file(program, 'robot', args.robot)
+    if program.cell is not None:
+        note_input(program.cell)
+        if not hasattr(args, 'cell') and not os.path.isfile(program.cell):   # unread (check reads it): not dangling
+            what = 'is not a regular file' if os.path.exists(program.cell) else 'does not exist'
+            raise FileError(f'{program.source}: cell file {str(program.cell)!r} (named by the program, relative to its '
+                            f'folder) {what}; allowed: an existing cell file, or no cell key')
+    if rate is not None:
+        check_sample_count(program, rate)
+    described = robot_of(args, robot)
+    if args.robot is not None and program.robot is not None and os.path.isfile(program.robot):   # another robot:
+        program_robot(program, described, GIVEN_ROBOT)   # named, not as its stations out of reach
+    return program, plan_program(described, program, rate)
 
 
 def lengths(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
@@ -238,6 +274,29 @@ def direction(args: argparse.Namespace, value: float, option: str) -> float:
         raise InputError(f'{option} = {"-" if v < 0 else ""}{shown} rad is outside [-2pi, 2pi] rad{near}; allowed: an '
                          'angle in radians (give --deg for degrees)')
     return math.radians(v) if deg else v
+
+
+#: The hint of a typed tilt beyond the tilt limit that would be within it read as degrees (:func:`typed_tilt`).
+DEGREES_HINT = ' (degrees given as radians? give --deg)'
+
+
+def typed_tilt(args: argparse.Namespace, option: str, value: float, typed: float, config: GprConfig,
+               tilt: float | None = None, allowed: str = '|tilt|') -> None:
+    """Refuse a tilt typed as ``option`` (``value`` [rad], ``--deg`` converted; ``typed`` as typed) whose ``tilt``
+    (default ``|value|``: what the core checks) is beyond ``config``'s tilt limit by the core's rule
+    (:func:`~gpr_kinematics.core.inverse.tilt_target_slack`), in the core's words with ``allowed`` (``--max-tilt``
+    for the sweep's) and, where ``typed`` read as degrees would be within the limit and more than ten times it as
+    radians, :data:`DEGREES_HINT` (``gpr robot ik``'s rule: ``--tilt 2`` meant 2 deg). A tilt that is not finite is
+    left to the core."""
+    from ..core.forward import beyond_tilt
+    from ..core.inverse import tilt_target_slack
+    checked = abs(value) if tilt is None else tilt
+    slack = tilt_target_slack(config)
+    if not math.isfinite(checked) or checked - config.tilt_limit <= slack:
+        return
+    degrees = not getattr(args, 'deg', False) and abs(typed) > 10.0 * config.tilt_limit and \
+        math.radians(abs(typed)) - config.tilt_limit <= slack
+    raise LimitError(f'{option} = {beyond_tilt(value, config.tilt_limit, allowed)}{DEGREES_HINT if degrees else ""}')
 
 
 def robot_options(p: argparse.ArgumentParser, program: bool = False) -> None:

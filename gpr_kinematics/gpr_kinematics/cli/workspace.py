@@ -9,8 +9,9 @@ Examples::
 
 ``--delta`` is the accuracy in metres (``--mm``: millimetres); angle edges count as ``angle_scale`` times the
 angle (the mechanism's characteristic length), see docs/workspace.md. A progress bar appears on stderr after
-2 s; Ctrl-C (or SIGTERM) stops the run and keeps (and saves) what was proved, marked ``interrupted``, exiting with
-status 130 (143), as does the time limit (``--max-seconds``, default 600 s), exiting 0.
+2 s; Ctrl-C (or SIGTERM) stops the run and keeps (and saves) what was proved, marked ``interrupted`` (its
+``stopped``: ``interrupted``, or ``terminated`` after SIGTERM), exiting with status 130 (143), as does the time limit
+(``--max-seconds``, default 600 s), exiting 0.
 """
 
 from __future__ import annotations
@@ -127,7 +128,7 @@ def _scheduler(args: argparse.Namespace) -> str:
 def _check_args(args: argparse.Namespace) -> float:
     delta = metres(float(args.delta), args.mm)
     if not math.isfinite(delta) or delta <= 0:
-        raise InputError(f'--delta must be a positive number (m, or mm with --mm), got {args.delta}')
+        raise InputError(f'--delta = {args.delta:g} is invalid; allowed: a positive number (m, or mm with --mm)')
     # options of another method or scheduler were run without a word (--grid-nodes 5 under the covering)
     if args.grid_nodes is not None and args.method != 'grid':
         raise InputError(f'--grid-nodes belongs to --method grid; allowed with --method {args.method}: no --grid-nodes')
@@ -138,10 +139,11 @@ def _check_args(args: argparse.Namespace) -> float:
     args.grid_nodes = 3 if args.grid_nodes is None else args.grid_nodes
     args.parts = PARTS if args.parts is None else args.parts
     if args.grid_nodes < 2:
-        raise InputError(f'--grid-nodes must be at least 2, got {args.grid_nodes}')
+        raise InputError(f'--grid-nodes = {args.grid_nodes} is invalid; allowed: an integer of at least 2 (nodes per '
+                         'box edge)')
     check_max_seconds(args.max_seconds, '--max-seconds')
     if not 1 <= args.parts <= 100_000:
-        raise InputError(f'--parts must be from 1 to 100000, got {args.parts}')
+        raise InputError(f'--parts = {args.parts} is invalid; allowed: an integer from 1 to 100000')
     if args.boxes is not None:  # an empty name is refused, not ignored; a .npz (it overwrote a measurement CSV)
         check_output(args.boxes, '--boxes')
         if Path(args.boxes).suffix:   # a name without one is written as given
@@ -181,6 +183,7 @@ def run(args: argparse.Namespace) -> int:
                          progress=not args.no_progress, max_seconds=args.max_seconds,
                          max_boxes=args.max_boxes, scheduler=_scheduler(args), workers=args.workers,
                          parts=args.parts)
+    terminated(result)
     report = workspace_report(model, result)
     name = Path(args.file).stem   # the summary's heading and the plots' names (a model's type is in --json)
     written: dict[str, JsonValue] = {}
@@ -198,11 +201,12 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f'gpr workspace: warning: no feasible point among {nodes}: the workspace may lie between '
                          f'them (method {args.method}, not certified; {more}, or --method covering)\n')
     if result.interrupted:
-        why = '' if result.stopped == 'interrupted' else f' ({result.stopped})'
-        sys.stderr.write(f'gpr workspace: interrupted{why} after {result.seconds:.1f} s; the unexamined boxes '
+        said = 'terminated' if 'terminated' in result.stopped.split('; ') else 'interrupted'
+        why = '' if result.stopped == said else f' ({result.stopped})'
+        sys.stderr.write(f'gpr workspace: {said}{why} after {result.seconds:.1f} s; the unexamined boxes '
                          'count as boundary boxes\n')
     # stopped by a signal: what was proved is kept, and the status says so (a time or box limit is a result: 0)
-    signalled = StopFlag.caught is not None or 'interrupted' in result.stopped.split('; ')   # parts' reasons joined
+    signalled = StopFlag.caught is not None or bool({'interrupted', 'terminated'} & set(result.stopped.split('; ')))
     status = 128 + (StopFlag.caught or signal.SIGINT) if signalled else 0
     if args.json:
         emit_json(report, file=str(args.file), overrides=json_object(overrides), **written)
@@ -219,6 +223,14 @@ def run(args: argparse.Namespace) -> int:
     for note in notes:
         print(note)
     return status
+
+
+def terminated(result: WorkspaceResult) -> None:
+    """A run stopped by SIGTERM says ``terminated`` where it said ``interrupted`` (its ``stopped``, the stderr line,
+    the plots' titles), as every command stopped by SIGTERM does (Ctrl-C: ``interrupted``); the parts' other reasons
+    kept."""
+    if StopFlag.caught == signal.SIGTERM and result.interrupted:
+        result.stopped = '; '.join('terminated' if r == 'interrupted' else r for r in result.stopped.split('; '))
 
 
 def output_directory(path: str | Path) -> Path:

@@ -166,7 +166,7 @@ def compensate_one(p_c: Vec3, quat: Quat, tool: Vec3, cfg: GprConfig, model: str
     M = mat_tmul(tilt_matrix(tilt, az), R_c)
     twist = math.atan2(M[1][0], M[0][0])
     if tilt - cfg.tilt_limit > tilt_target_slack(cfg):   # inverse kinematics' rule: 2 deg at 45 deg is a few ulps over
-        raise LimitError(f'commanded tilt {beyond_tilt(tilt, cfg.tilt_limit)}')
+        raise LimitError(f'commanded tilt {beyond_tilt(tilt, cfg.tilt_limit, "a commanded tilt")}')
     a = mat_vec(R_c, tool)
     commanded = (p_c[0] + a[0], p_c[1] + a[1], p_c[2] + a[2])
     c, sn = math.cos(twist), math.sin(twist)

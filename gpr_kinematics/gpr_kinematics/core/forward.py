@@ -174,10 +174,10 @@ def tilt_words(tilt: float, limit: float) -> tuple[str, str]:
     return f'{shown} rad ({deg} deg)', f'{end} rad ({deg_end} deg)'
 
 
-def beyond_tilt(tilt: float, limit: float) -> str:
-    """``'<tilt> rad (<deg> deg) is beyond the tilt limit <limit> rad (<deg> deg)'`` (:func:`tilt_words`)."""
+def beyond_tilt(tilt: float, limit: float, allowed: str = '|tilt|') -> str:
+    """``'<tilt> rad (<deg> deg) is beyond the tilt limit; allowed: <allowed> <= <limit> rad (<deg> deg)'``."""
     shown, end = tilt_words(tilt, limit)
-    return f'{shown} is beyond the tilt limit {end}'
+    return f'{shown} is beyond the tilt limit; allowed: {allowed} <= {end}'
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:

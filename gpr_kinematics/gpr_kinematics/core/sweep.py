@@ -192,7 +192,7 @@ def paper_sweep(height: float = DEFAULT_HEIGHT, max_tilt: float = DEFAULT_MAX_TI
     if not math.isfinite(plain_number(height)):   # True (1 m) and text refused, numpy scalars as their numbers
         raise InputError(f'height = {brief(height)} must be a finite number of metres')
     if plain_number(max_tilt) - cfg.tilt_limit > tilt_target_slack(cfg):  # before counting (NaN: sweep_grid names it)
-        raise LimitError(f'max_tilt = {beyond_tilt(plain_number(max_tilt), cfg.tilt_limit)}')
+        raise LimitError(f'max_tilt = {beyond_tilt(plain_number(max_tilt), cfg.tilt_limit, "max_tilt")}')
     gamma, alpha, pass_index = sweep_grid(max_tilt, tilt_step, azimuth_step, passes, serpentine)
     ik = inverse_batch(np.full(alpha.shape, float(height)), alpha, gamma, config=cfg, model=model)
     return SweepResult(gamma=gamma, alpha=alpha, pass_index=pass_index, height=float(height), q=ik.q,

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from ..core.rotations import wrap_angle
-from ..errors import InputError, SingularityError, apart, brief
+from ..errors import ConvergenceError, InputError, SingularityError, apart, brief
 from ..inputs.validation import MAX_COORDINATE, float_array
 from .base import (
     ANGULAR_JOINTS,
@@ -319,6 +319,27 @@ def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:
     return 1.0 / dex
 
 
+def _unsolved(mech: Mechanism, perturbed: Mechanism, poses: np.ndarray, joints: np.ndarray, cond: np.ndarray,
+              tol: float, exc: ConvergenceError) -> ConvergenceError:
+    """The exact solve's failure at the first pose whose perturbed joints ``joints`` no pose near it reaches, named
+    with its pose, its condition number and what is allowed (a mechanism without a reach check of its own: the pose
+    lies likely outside the reach of the mechanism with the errors)."""
+    k = 0
+    if poses.shape[0] > 1:   # the batch does not say which pose: each solved alone until one fails
+        for k in range(poses.shape[0]):
+            try:
+                perturbed.forward_kinematics(joints[k:k + 1], poses[k:k + 1], tol=tol)
+            except ConvergenceError:
+                break
+    pose = ', '.join(f'{v:.6g}' for v in poses[k].tolist())
+    reason = str(exc).removeprefix(f'{perturbed.name}: forward kinematics ').split('; allowed: ')[0]   # ours below
+    return ConvergenceError(f'{mech.name}: the exact deviation at pose {k + 1} ({", ".join(mech.pose_names)} = '
+                            f'{pose}; m, rad) cannot be solved: forward kinematics of its joints with their errors '
+                            f'{reason}; allowed: poses the mechanism still reaches with the errors (this one, '
+                            f'condition number {cond[k]:.3g}, is likely outside its reach: a pose farther inside the '
+                            'workspace, or smaller errors)', sample=k)
+
+
 def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
                       parameter_errors: Mapping[str, Any] | None = None, tol: float = 1e-13
                       ) -> AccuracyResult:
@@ -350,7 +371,10 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
         perturbed = mech.with_parameters({k: nominal[k] + v for k, v in dp.items()})
     else:
         perturbed = mech
-    exact_poses = perturbed.forward_kinematics(q + ds, arr, tol=tol)
+    try:
+        exact_poses = perturbed.forward_kinematics(q + ds, arr, tol=tol)
+    except ConvergenceError as exc:   # it said only 'did not converge to 1e-13 in 50 iterations', not where
+        raise _unsolved(mech, perturbed, arr, q + ds, cond, tol, exc) from None
     exact = mech.coordinates(exact_poses) - mech.coordinates(arr)
     angular = np.array([mech.pose_names.index(v) >= 3 for v in mech.pose_variables])
     exact[:, angular] = wrap_angle(exact[:, angular])  # Euler angles wrap

@@ -1,0 +1,214 @@
+"""The `gpr` messages and help a user trial found wanting (trial 17): help that promised what the command did not do,
+refusals without what is allowed, a hint of degrees typed as radians that only `gpr robot ik` gave, the library's
+names where the option was typed, an azimuth step that left a gap without a word, `program send --json` silent on
+stdout when it failed, and a forward-kinematics failure that named no pose."""
+import json
+import math
+
+import pytest
+from gpr_kinematics.core import inverse
+from gpr_kinematics.core.compensation import compensate
+from gpr_kinematics.core.sweep import paper_sweep
+from gpr_kinematics.errors import LimitError
+from gpr_kinematics.inputs.resources import config_path
+from test_core_cli import run
+
+PROGRAM = str(config_path('programs/example_robot_program.yaml'))
+#: The refusal of a tilt beyond the default tilt limit, 2 deg, after `--tilt 2` (2 deg meant).
+BEYOND = '= 2 rad (114.592 deg) is beyond the tilt limit; allowed: {} <= 0.034906585 rad (2 deg)'
+DEGREES = ' (degrees given as radians? give --deg)'
+
+
+def _error(capsys, *argv):
+    """The one line of a refusal (status 2, nothing on stdout), without its ending."""
+    status, out, err = run(capsys, *argv)
+    assert (status, out, err.count('\n')) == (2, '', 1), err
+    return err.rstrip('\n')
+
+
+# -- 1, 2: gpr accuracy's help says what --errors and --samples do ---------------------------------------------------
+def test_the_help_of_errors_and_samples_says_what_they_do(capsys):
+    """`--errors` said "repeatable, the values add up" (read: summed), and a second `--errors` of 6 values was refused
+    with "takes 6 values; got 12": the values are joined, as `--free`'s names are, and the help says so now, as the
+    refusal does; `--samples` said "at most 1000000", and a program refused 1,000,000 samples of its 6 stations."""
+    status, out, _ = run(capsys, 'accuracy', '--help')
+    text = ' '.join(out.split())
+    assert status == 0 and 'add up' not in text
+    assert 'repeatable: the values of every --errors are joined in order (--errors E1 E2 E3 --errors E4 E5 E6), ' \
+           'one per joint in all' in text
+    assert 'at most 1000000, and samples x stations at most 5000000 for a program' in text
+    pose = ['--pose', '0', '0', '1', '0', '0', '0']
+    assert _error(capsys, 'accuracy', 'stewart_alwan.yaml', *pose, '--errors', '0.001', '0', '0', '0', '0', '0',
+                  '--errors', '0.001', '0', '0', '0', '0', '0') == (
+        'gpr accuracy: error: --errors has 12 values in all; allowed: 6 (s1, s2, s3, s4, s5, s6), one per joint (the '
+        'values of every --errors joined in order)')
+    status, out, err = run(capsys, 'accuracy', 'stewart_alwan.yaml', *pose, '--errors', '0.001', '0', '0',
+                           '--errors', '0', '0', '0', '--json')
+    assert status == 0, err
+    assert json.loads(out)['results'][0]['joint_errors'] == [0.001, 0, 0, 0, 0, 0]
+
+
+# -- 3: a tilt typed in degrees without --deg -------------------------------------------------------------------------
+@pytest.mark.parametrize('argv, option, allowed', [
+    (['ik', '--height', '0.5', '--tilt', '2', '--azimuth', '0'], '--tilt', '|tilt|'),
+    (['compensate', '--height', '0.4', '--tilt', '2', '--azimuth', '0'], '--tilt', '|tilt|'),
+    (['mechanism', 'gpr.yaml', '--pose', '0', '0', '0.5', '2', '0', '0'], '--pose tilt |(A, B)|', '|(A, B)|'),
+    (['accuracy', 'gpr.yaml', '--tolerances', 'tolerances_example.yaml', '--pose', '0', '0', '0.5', '2', '0', '0'],
+     '--pose tilt |(A, B)|', '|(A, B)|'),
+    (['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.5', '2', '0', '0'], '--pose tilt |(A, B)|', '|(A, B)|'),
+    (['sweep', '--max-tilt', '2'], '--max-tilt', '--max-tilt'),   # it named the library's max_tilt
+])
+def test_a_tilt_of_degrees_typed_as_radians_is_named_as_typed_with_the_hint(capsys, argv, option, allowed):
+    """`gpr robot ik --tilt 2` said "degrees given as radians?"; these said "tilt = 2 rad ... is beyond the tilt
+    limit ..." with neither the hint nor what is allowed."""
+    assert _error(capsys, *argv) == f'gpr {argv[0]}: error: {option} {BEYOND.format(allowed)}{DEGREES}'
+
+
+@pytest.mark.parametrize('argv, message', [
+    # in degrees, or radians no degrees explain: no hint
+    (['ik', '--height', '0.5', '--tilt', '3', '--azimuth', '0', '--deg'],
+     '--tilt = 0.0523598776 rad (3 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)'),
+    (['ik', '--height', '0.5', '--tilt', '0.05', '--azimuth', '0'],
+     '--tilt = 0.05 rad (2.86479 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)'),
+    (['sweep', '--max-tilt', '3', '--deg'],
+     '--max-tilt = 0.0523598776 rad (3 deg) is beyond the tilt limit; allowed: --max-tilt <= 0.034906585 rad (2 deg)'),
+    (['ik', '--height', '0.5', '--tilt', '-2', '--azimuth', '0'],
+     '--tilt = -2 rad (-114.592 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)' + DEGREES),
+    (['dexterity', 'gpr.yaml', '--pose', '0', '0', '0.5', '1.2', '1.6', '0'],
+     '--pose tilt |(A, B)| = 2 rad (114.592 deg) is beyond the tilt limit; allowed: |(A, B)| <= 0.034906585 rad '
+     '(2 deg)' + DEGREES),
+])
+def test_a_tilt_beyond_the_limit_says_what_is_allowed(capsys, argv, message):
+    assert _error(capsys, *argv) == f'gpr {argv[0]}: error: {message}'
+
+
+def test_a_tilt_within_the_limit_once_a_rotation_is_still_taken(capsys):
+    """`gpr compensate --tilt 6.263` (2pi - 0.02) tilts the command's normal 0.02 rad: compensation takes it, and the
+    command line's check of the typed tilt does too."""
+    status, out, err = run(capsys, 'compensate', '--height', '0.4', '--tilt', '6.263', '--azimuth', '0', '--json')
+    assert status == 0 and json.loads(out)['achieved']['tilt'] == pytest.approx(2 * math.pi - 6.263, abs=1e-9), err
+
+
+def test_the_librarys_tilt_refusals_say_what_is_allowed_without_the_command_lines_hint():
+    """The Python API has no --deg: its messages say what is allowed, the hint is the command line's."""
+    for call, message in (
+            (lambda: inverse(0.5, 2.0, 0.0), 'tilt ' + BEYOND.format('|tilt|')),
+            (lambda: paper_sweep(max_tilt=2.0), 'max_tilt ' + BEYOND.format('max_tilt')),
+            (lambda: compensate([0, 0, 0.4], [math.sin(1.0), 0, 0, math.cos(1.0)]),
+             'commanded tilt 2 rad (114.592 deg) is beyond the tilt limit; allowed: a commanded tilt <= 0.034906585 '
+             'rad (2 deg)')):
+        with pytest.raises(LimitError) as err:
+            call()
+        assert str(err.value) == message
+
+
+# -- 4: --tool named as typed, with the hint of millimetres ---------------------------------------------------------
+@pytest.mark.parametrize('command', ['compensate', 'ik'])
+def test_a_tool_point_beyond_its_reach_is_named_as_the_option_with_the_hint_of_millimetres(capsys, command):
+    """`gpr compensate --tool 50 20 300` said `tool_offset = (50, 20, 300) m ...` (the library's name) and `gpr ik`
+    `tool = ...`, neither with the hint the rods, --position and heights give."""
+    argv = [command, '--height', '0.4', '--tilt', '0.01', '--azimuth', '0', '--tool', '50', '20', '300']
+    reach = ('is beyond the reach of a tool point (304.795 m from the platform origin); allowed: at most 10 m from the '
+             'platform origin (gpr_platform)')
+    assert _error(capsys, *argv) == f'gpr {command}: error: --tool = (50, 20, 300) m {reach} (millimetres? give --mm)'
+    # in millimetres: no hint
+    assert _error(capsys, *argv[:-3], '50000', '20', '300', '--mm').endswith('(gpr_platform)')
+
+
+# -- 7: an azimuth step that does not divide a turn --------------------------------------------------------------------
+@pytest.mark.parametrize('argv, message', [
+    (['--azimuth-step', '7', '--deg'],
+     '--azimuth-step = 7 deg does not divide a turn: its 52 azimuths from 0 to 357 deg leave 3 deg before 360 deg; '
+     'allowed: a step that divides a turn a whole number of times, the nearest 6.92307692308 deg (52 azimuths) or '
+     '7.05882352941 deg (51)'),
+    (['--azimuth-step', '0.1'],
+     '--azimuth-step = 0.1 rad does not divide a turn: its 63 azimuths from 0 to 6.2 rad leave 0.0831853 rad before '
+     '2pi rad; allowed: a step that divides a turn a whole number of times, the nearest 0.099733100114 rad (63 '
+     'azimuths) or 0.101341698503 rad (62)'),
+])
+def test_an_azimuth_step_that_leaves_a_gap_before_a_turn_is_refused_naming_the_nearest(capsys, argv, message):
+    """`gpr sweep --azimuth-step 7 --deg` swept 0 .. 357 deg without a word (a gap of 3 deg), while a --tilt-step
+    must divide --max-tilt; the steps it names are taken."""
+    assert _error(capsys, 'sweep', *argv) == f'gpr sweep: error: {message}'
+
+
+@pytest.mark.parametrize('argv, azimuths', [
+    (['--azimuth-step', '6.92307692308', '--deg'], 52), (['--azimuth-step', '7.05882352941', '--deg'], 51),
+    (['--azimuth-step', '0.099733100114'], 63), (['--azimuth-step', '0.101341698503'], 62),
+    (['--azimuth-step', '7.0588235294', '--deg'], 51), (['--azimuth-step', '10', '--deg'], 36),
+    (['--azimuth-step', '360', '--deg'], 1), (['--azimuth-step', repr(2 * math.pi / 7)], 7),
+])
+def test_a_step_that_divides_a_turn_is_taken(capsys, argv, azimuths):
+    tilt = ['--max-tilt', '1', '--tilt-step', '1'] if '--deg' in argv else ['--max-tilt', '0.01', '--tilt-step', '0.01']
+    status, out, err = run(capsys, 'sweep', *tilt, *argv, '--json')
+    assert status == 0, err
+    assert json.loads(out)['samples'] == 3 * azimuths
+
+
+# -- 8: gpr program send --json prints its object when it fails ----------------------------------------------------
+class _NoServerError(Exception):
+    pass
+
+
+class _Client:
+    def __init__(self, name, namespace):
+        self.name, self.namespace = name, namespace
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+@pytest.mark.parametrize('failure', ['no joint states', 'no server', 'no result'])
+def test_send_json_prints_its_object_with_the_failure(capsys, monkeypatch, failure):
+    """`gpr program send ... --action nope --timeout 1 --json` exited 1 with nothing on stdout, where `program check
+    --json` and `verify --json` print their object on status 1: the SendResult, its status and the failure's line. The
+    ROS client is stood in for (test_ros_program_send runs the real one)."""
+    pytest.importorskip('rclpy')
+    from gpr_kinematics.cli import program_send
+    from gpr_kinematics.robot.controller import ControllerJoints
+    from robot_support import ROBOT
+
+    def positions(client, names, topic, timeout):
+        return None if failure == 'no joint states' else ControllerJoints.of(ROBOT).rest
+
+    def follow(client, goal, action, timeout, progress, found):
+        raise _NoServerError(action) if failure == 'no server' else TimeoutError('/nope: no result 1 s after the '
+                                                                                 "trajectory's end; the goal was "
+                                                                                 'cancelled')
+
+    fake = type('tc', (), {'GprClient': _Client, 'current_positions': staticmethod(positions),
+                           'other_robot_there': staticmethod(lambda client, robot: None),
+                           'MissingJointsError': LookupError, 'follow_trajectory': staticmethod(follow),
+                           'NoServerError': _NoServerError, 'ServiceTimeoutError': TimeoutError})
+    monkeypatch.setattr(program_send, '_ros_modules', lambda: fake)
+    status, out, err = run(capsys, 'program', 'send', PROGRAM, '--action', '/nope', '--timeout', '1', '--json')
+    line = err.rstrip('\n').removeprefix('gpr program send: ')
+    result = json.loads(out)
+    assert (status, out.count('\n'), err.count('\n')) == (1, 1, 1)
+    assert (result['status'], result['failure'], result['action']) == (
+        'no_result' if failure == 'no result' else 'not_sent', line, '/nope')
+    assert (result['error_code'], result['feedback'], result['robot']) == (0, 0, ROBOT.name)
+    assert result['points'] > 0 and result['duration'] > 0
+    if failure == 'no joint states':
+        assert result['lead_in'] is None and line.startswith('no joint states with the joints rod_1, rod_2, rod_3, ')
+    else:
+        assert result['lead_in'] >= 0
+        assert line == ('no FollowJointTrajectory server on /nope within 1 s (change the name with --action, the wait '
+                        'with --timeout)' if failure == 'no server' else
+                        "/nope: no result 1 s after the trajectory's end; the goal was cancelled")
+
+
+# -- 9: a pose where the exact deviation cannot be solved ----------------------------------------------------------
+def test_a_pose_the_perturbed_mechanism_does_not_reach_is_named_with_what_is_allowed(capsys):
+    """A pose 1 mm above the base (`--pose 0 0 1 0 0 0 --mm`) said only "forward kinematics did not converge to 1e-13
+    in 50 iterations (max residual 0.0759)": no pose, nothing allowed."""
+    assert _error(capsys, 'accuracy', 'stewart_alwan.yaml', '--pose', '0', '0', '1', '0', '0', '0', '--errors', '1',
+                  '0', '0', '0', '0', '0', '--mm') == (
+        'gpr accuracy: error: Gough-Stewart platform (Alwan 2011): the exact deviation at pose 1 (x, y, z, A, B, C = '
+        '0, 0, 0.001, 0, 0, 0; m, rad) cannot be solved: forward kinematics of its joints with their errors did not '
+        'converge to 1e-13 in 50 iterations (max residual 0.0759); allowed: poses the mechanism still reaches with the '
+        'errors (this one, condition number 1.05e+04, is likely outside its reach: a pose farther inside the '
+        'workspace, or smaller errors)')
