@@ -354,14 +354,14 @@ def _file_size_limit(limit: int):
 def test_recorder_full_disk_stops_with_one_line_and_keeps_the_closed_segments(tmp_path):
     """A file size limit (RLIMIT_FSIZE, as a full disk: writes fail with EFBIG) under an SQLite3 recording: small
     segments close fine while a slow stream runs; a fast stream then overfills a segment. The recorder ends with
-    status 1 and one ``stopped:`` line; the segments closed before stay a readable bag."""
+    status 1 and one ``stopped:`` line under its own name; the segments closed before stay a readable bag."""
     from gpr_kinematics.bags.reader import read_bag
     from gpr_kinematics.ros.process import NodeProcess
 
     bag = tmp_path / 'bag'
     env = {**os.environ, 'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}    # no shared-memory files under the limit
     rec = NodeProcess('recorder_node', ['-p', f'output:={bag}', '-p', 'storage:=sqlite3', '-p', 'flush_interval:=0.2',
-                                        '-p', 'topics:=[gpr/platform_state, gpr/markers]'],
+                                        '-p', 'topics:=[gpr/platform_state, gpr/markers]', '-r', '__node:=rec_full'],
                       env=env, preexec=_file_size_limit(100_000))
     slow = fast = None
     try:
@@ -376,7 +376,8 @@ def test_recorder_full_disk_stops_with_one_line_and_keeps_the_closed_segments(tm
             if p is not None:
                 p.stop(signal.SIGINT)
     out = rec.output()
-    assert_one_error_line(out, status, 1, r'stopped: BagError: cannot write the bag .*disk full')
+    # by the node's name as remapped (it was logged as [recorder_node])
+    assert_one_error_line(out, status, 1, r'\[rec_full\]: stopped: BagError: cannot write the bag .*disk full')
     assert 'segment(s) closed before the error' in out
     b = read_bag(bag)
     states = b.topic('/gpr/platform_state')

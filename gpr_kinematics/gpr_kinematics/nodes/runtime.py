@@ -409,14 +409,14 @@ def run(node_class: type[GprNode], args: Sequence[str] | None = None, name: str 
             status = node.exit_status or EXIT_OK
         except ExternalShutdownException:
             status = EXIT_OK
-        except Exception as exc:  # noqa: BLE001 - an error while running: one line
-            logger.error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
+        except Exception as exc:  # noqa: BLE001 - an error while running: one line, by the node's own (remapped) name
+            node.get_logger().error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
             status = EXIT_FAILED
         node.signalled = bool(stop)
         try:
             return node.on_exit(executor, status)
         except Exception as exc:  # noqa: BLE001 - leaving anyway, with one line
-            logger.error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
+            node.get_logger().error(f'stopped: {type(exc).__name__}: {one_line(exc)}')
             return EXIT_FAILED
     finally:
         own = args is None   # a process of its own (not a test's call)
