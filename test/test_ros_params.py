@@ -180,6 +180,11 @@ def test_use_sim_time_is_fixed_once_a_node_runs(client, exe):
         assert nameless.results[0].reason == "a parameter named '' (empty); allowed: the node's parameters " \
                                              '(list_parameters)'
         assert '' not in _dump(client, f'/clock_fixed/{exe}')
+        # an undeclared name is named (rclpy listed none: "Invalid access to undeclared parameter(s): []")
+        unknown = client.call(SetParameters, service, SetParameters.Request(
+            parameters=[Parameter(name='no_such_param', value=v)]))
+        assert unknown.results[0].reason == ("Invalid access to undeclared parameter(s): 'no_such_param'; allowed: the "
+                                             "node's parameters (list_parameters)")
         if exe == 'robot_simulator_node':   # its idle joint_states go on (they stopped under a /clock nobody sends)
             states = client.subscribe(JointState, '/clock_fixed/joint_states')
             assert client.spin_until(lambda: len(states) >= 3, 10)

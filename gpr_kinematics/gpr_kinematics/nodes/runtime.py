@@ -31,7 +31,7 @@ from typing import Any
 import rclpy
 from rcl_interfaces.msg import ParameterType, SetParametersResult
 from rclpy.duration import Duration
-from rclpy.exceptions import InvalidHandle, NameValidationException, ParameterException
+from rclpy.exceptions import InvalidHandle, NameValidationException, ParameterException, ParameterNotDeclaredException
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor, await_or_execute
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -219,6 +219,16 @@ class GprNode(Node):
                                            f'once the node runs (now {now}); allowed: set it at start (-p '
                                            'use_sim_time:=true, or the launch argument use_sim_time)')
         return SetParametersResult(successful=True)
+
+    def _check_undeclared_parameters(self, parameter_list: list[Parameter]) -> None:
+        """rclpy's check, naming the undeclared parameters and what is allowed (its generator, consumed by ``any``,
+        listed none: ``Invalid access to undeclared parameter(s): []``)."""
+        names = [p.name for p in parameter_list
+                 if isinstance(p, Parameter) and p.name and p.name not in self._parameters]
+        if names and not self._allow_undeclared_parameters:
+            raise ParameterNotDeclaredException(f"{', '.join(map(repr, names))}; allowed: the node's parameters "
+                                                '(list_parameters)')
+        super()._check_undeclared_parameters(parameter_list)
 
     def pace_clock(self) -> float:
         """Seconds on the clock that paces the node's streams, as its timers run: the ROS clock under
