@@ -194,7 +194,8 @@ def test_fixed_joint_redundancy_holds_the_joint_and_takes_a_value_per_station():
     assert ok.sum() > 100
     fk = robot_forward(ROBOT, sol.rods[ok], sol.joints[ok], 'arm2')
     assert np.max(np.linalg.norm(fk.wafer.position - st.position[ok], axis=1)) < 1e-9
-    with pytest.raises(InputError, match='fixed_joint rule; arm arm1 has 3 joints'):
+    with pytest.raises(InputError, match='fixed_joint rule; arm arm1 has 3 joints; allowed: no redundancy value for '
+                                         r'arm arm1 \(the service: use_redundancy_value false\)'):
         solve_stations(ROBOT, st, 'arm1', redundancy_value=0.1)
     with pytest.raises(InputError, match=r'redundancy value = nan \(station 0\) is not a finite number'):
         solve_stations(ROBOT, st, 'arm2', redundancy_value=float('nan'))

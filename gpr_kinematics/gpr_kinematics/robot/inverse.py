@@ -236,7 +236,8 @@ def _held_values(a: Arm, redundancy_value: ArrayLike, stations: Stations) -> Arr
     robot file's rule: 5 rad on [-2.5, 2.5] rad was held at -1.28 rad without a word), one beyond a turn named so."""
     if a.redundancy is None or a.redundancy.rule != 'fixed_joint':
         raise InputError(f'a redundancy value applies to 4-joint arms under the fixed_joint rule; arm {a.name} '
-                         'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule'))
+                         'has ' + (f'{len(a.joints)} joints' if a.redundancy is None else 'the nearest rule') +
+                         f'; allowed: no redundancy value for arm {a.name} (the service: use_redundancy_value false)')
     value = per_station(redundancy_value, 'redundancy value', len(stations))
     joint = a.joints[a.redundancy.joint]
     limits = f'the held joint {joint.name} ranges over [{joint.lower:g}, {joint.upper:g}] rad'
