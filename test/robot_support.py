@@ -96,3 +96,21 @@ def tilted_rods_robot() -> RobotDescription:
     data['gpr'] = {'config': None, **TILTED_RODS}
     data['base'] = {'frame': 'world', 'position': [1.2, -0.4, 0.3], 'rpy': [0.02, -0.03, 2.1]}
     return make_robot(data)
+
+
+class NoServerStandInError(Exception):
+    """``trajectory_client.NoServerError`` of a stand-in client module (``gpr program send`` without ROS)."""
+
+
+class ClientStandIn:
+    """``trajectory_client.GprClient`` as a context manager that connects to nothing (``gpr program send`` without
+    ROS: the functions it calls are replaced too)."""
+
+    def __init__(self, name, namespace):
+        self.name, self.namespace = name, namespace
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False

@@ -11,6 +11,7 @@ from gpr_kinematics.core.compensation import compensate
 from gpr_kinematics.core.sweep import paper_sweep
 from gpr_kinematics.errors import LimitError
 from gpr_kinematics.inputs.resources import config_path
+from robot_support import ClientStandIn, NoServerStandInError
 from test_core_cli import run
 
 PROGRAM = str(config_path('programs/example_robot_program.yaml'))
@@ -146,21 +147,6 @@ def test_a_step_that_divides_a_turn_is_taken(capsys, argv, azimuths):
 
 
 # -- 8: gpr program send --json prints its object when it fails ----------------------------------------------------
-class _NoServerError(Exception):
-    pass
-
-
-class _Client:
-    def __init__(self, name, namespace):
-        self.name, self.namespace = name, namespace
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-
 @pytest.mark.parametrize('failure', ['no joint states', 'no server', 'no result'])
 def test_send_json_prints_its_object_with_the_failure(capsys, monkeypatch, failure):
     """`gpr program send ... --action nope --timeout 1 --json` exited 1 with nothing on stdout, where `program check
@@ -175,14 +161,14 @@ def test_send_json_prints_its_object_with_the_failure(capsys, monkeypatch, failu
         return None if failure == 'no joint states' else ControllerJoints.of(ROBOT).rest
 
     def follow(client, goal, action, timeout, progress, found):
-        raise _NoServerError(action) if failure == 'no server' else TimeoutError('/nope: no result 1 s after the '
+        raise NoServerStandInError(action) if failure == 'no server' else TimeoutError('/nope: no result 1 s after the '
                                                                                  "trajectory's end; the goal was "
                                                                                  'cancelled')
 
-    fake = type('tc', (), {'GprClient': _Client, 'current_positions': staticmethod(positions),
+    fake = type('tc', (), {'GprClient': ClientStandIn, 'current_positions': staticmethod(positions),
                            'other_robot_there': staticmethod(lambda client, robot: None),
                            'MissingJointsError': LookupError, 'follow_trajectory': staticmethod(follow),
-                           'NoServerError': _NoServerError, 'ServiceTimeoutError': TimeoutError})
+                           'NoServerError': NoServerStandInError, 'ServiceTimeoutError': TimeoutError})
     monkeypatch.setattr(program_send, '_ros_modules', lambda: fake)
     status, out, err = run(capsys, 'program', 'send', PROGRAM, '--action', '/nope', '--timeout', '1', '--json')
     line = err.rstrip('\n').removeprefix('gpr program send: ')

@@ -13,7 +13,7 @@ from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.robot.forward import robot_forward
 from gpr_kinematics.robot.inverse import solve_stations
 from gpr_kinematics.robot.stations import Stations
-from robot_support import ROBOT
+from robot_support import ROBOT, ClientStandIn, NoServerStandInError
 from test_core_cli import run, run_json  # the core CLI tests' helpers: main() in-process, one JSON line
 
 PROGRAM = str(config_path('programs/example_robot_program.yaml'))
@@ -277,21 +277,6 @@ def test_an_error_names_the_whole_command(capsys):
         assert run(capsys, *argv) == (2, '', line)
 
 
-class _NoServerError(Exception):
-    pass
-
-
-class _Client:
-    def __init__(self, name, namespace):
-        self.name, self.namespace = name, namespace
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-
 @pytest.mark.parametrize('options, topic, action, where', [
     (['--namespace', 'r3'], '/r3/joint_states', '/r3/joint_trajectory_controller/follow_joint_trajectory',
      ('--joint-states and --namespace', '--action and --namespace')),
@@ -316,11 +301,11 @@ def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monk
 
     def follow(client, goal, action, timeout, progress, found):
         seen['action'] = action
-        raise _NoServerError(action)
+        raise NoServerStandInError(action)
 
-    fake = type('tc', (), {'GprClient': _Client, 'current_positions': staticmethod(positions),
+    fake = type('tc', (), {'GprClient': ClientStandIn, 'current_positions': staticmethod(positions),
                            'other_robot_there': staticmethod(lambda client, robot: None),   # no description there
-                           'follow_trajectory': staticmethod(follow), 'NoServerError': _NoServerError,
+                           'follow_trajectory': staticmethod(follow), 'NoServerError': NoServerStandInError,
                            'ServiceTimeoutError': TimeoutError})
     monkeypatch.setattr(cli_program, '_ros_modules', lambda: fake)
     argv = ['program', 'send', PROGRAM, '--rate', '10', '--timeout', '0.5', *options]
