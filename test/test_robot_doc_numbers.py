@@ -80,7 +80,7 @@ def test_program_export_trajectory_at_5_hz(capsys, tmp_path, monkeypatch):
     assert round(size / 1000) == 52
     quoted = re.search(r'at `--rate 5` (\d+) points, ([\d,]+) bytes here', TEXT)
     assert quoted and int(quoted[1]) == points and abs(int(quoted[2].replace(',', '')) - size) <= 0.01 * size
-    assert 'The program lasts 28.477 s (`check`, `export`)' in TEXT and ', 28.477 s; every waypoint' in out
+    assert 'The program lasts 28.528 s (`check`, `export`)' in TEXT and ', 28.528 s; every waypoint' in out
 
 
 def test_program_send_output_as_send_builds_its_goal():
@@ -111,7 +111,7 @@ def test_program_send_output_as_send_builds_its_goal():
     expected.append(f'succeeded (error_code 0 SUCCESSFUL): reached the last point at t = {t[-1]:.6g} s ({len(t)} '
                     'samples)')
     assert _block(f'gpr program send {PROGRAM} --progress 5') == expected
-    assert (len(traj), len(goal), round(start * SEND_RATE)) == (2849, 3001, 152)
+    assert (len(traj), len(goal), round(start * SEND_RATE)) == (2854, 3006, 152)
     assert f'{SEND_RATE:g} Hz: {len(traj)} points' in TEXT.replace('(default 100 Hz:', '100 Hz:')
     assert f'to the program\'s start, {start:.2f} s ({round(start * SEND_RATE)} periods): {len(goal)} points over ' \
            f'{goal.duration:.3f} s' in TEXT

@@ -158,6 +158,7 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
     stations: list[tuple[str, str, Windows]] = []
     carrying: dict[str, float] = {}
     emptied: dict[str, float] = {}   # when each arm's blade had left the station of its last place
+    cleared: dict[str, tuple[float, str]] = {}   # when the blade of each station's last pick had left it, and which
     carried: dict[str, list[tuple[float, float]]] = {a.name: [] for a in plan.robot.arms}
     contact: dict[tuple[str, str], list[tuple[float, float]]] = {}
     for i, phase in enumerate(way.phase):
@@ -171,9 +172,13 @@ def wafer_plan(plan: ProgramPlan) -> WaferPlan:
         contact.setdefault((arm, station), []).append((float(timing.depart[approach]), float(timing.arrive[retract])))
         if step.kind == 'pick':   # the order of picks and places: refused by plan_program where wrong
             lying = present.pop(station, None)
+            if lying is None and program.wafers is None:   # without the key a pick finds one where it picks: there
+                lying = cleared.get(station, (0.0, 'start'))   # since the start, or since the last pick there left
             if lying is not None and lying[0] < t:
                 stations.append((station_wafer(station, lying[1]), station, ((lying[0], t),)))
             carrying[arm] = t
+            after = next((k for k in range(retract + 1, len(way.arm)) if way.arm[k] == arm), None)
+            cleared[station] = (end if after is None else float(timing.arrive[after]), f'steps[{int(way.step[i])}]')
         else:
             if arm in carrying:
                 carried[arm].append((carrying.pop(arm), t))
