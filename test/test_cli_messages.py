@@ -121,11 +121,16 @@ def test_a_tool_point_beyond_its_reach_is_named_as_the_option_with_the_hint_of_m
     (['--azimuth-step', '7', '--deg'],
      '--azimuth-step = 7 deg does not divide a turn: its 52 azimuths from 0 to 357 deg leave 3 deg before 360 deg; '
      'allowed: a step that divides a turn a whole number of times, the nearest 6.92307692308 deg (52 azimuths) or '
-     '7.05882352941 deg (51)'),
+     '7.05882352941 deg (51 azimuths)'),
     (['--azimuth-step', '0.1'],
      '--azimuth-step = 0.1 rad does not divide a turn: its 63 azimuths from 0 to 6.2 rad leave 0.0831853 rad before '
      '2pi rad; allowed: a step that divides a turn a whole number of times, the nearest 0.099733100114 rad (63 '
-     'azimuths) or 0.101341698503 rad (62)'),
+     'azimuths) or 0.101341698503 rad (62 azimuths)'),
+    # the least step: 0.0001 rad is 62831.85 steps a turn, and 2 pi / 62832 below the least (it was offered)
+    (['--azimuth-step', '0.0001'],
+     '--azimuth-step = 0.0001 rad does not divide a turn: its 62832 azimuths from 0 to 6.2831 rad leave 8.53072e-05 '
+     'rad before 2pi rad; allowed: a step that divides a turn a whole number of times, the nearest 0.000100001357724 '
+     'rad (62831 azimuths)'),
 ])
 def test_an_azimuth_step_that_leaves_a_gap_before_a_turn_is_refused_naming_the_nearest(capsys, argv, message):
     """`gpr sweep --azimuth-step 7 --deg` swept 0 .. 357 deg without a word (a gap of 3 deg), while a --tilt-step
@@ -138,6 +143,11 @@ def test_an_azimuth_step_that_leaves_a_gap_before_a_turn_is_refused_naming_the_n
     (['--azimuth-step', '0.099733100114'], 63), (['--azimuth-step', '0.101341698503'], 62),
     (['--azimuth-step', '7.0588235294', '--deg'], 51), (['--azimuth-step', '10', '--deg'], 36),
     (['--azimuth-step', '360', '--deg'], 1), (['--azimuth-step', repr(2 * math.pi / 7)], 7),
+    # the steps a refusal offers, to 12 digits, are taken at every count (one in two was refused: an absolute margin
+    # on the count beside a relative one), and as many azimuths as their count (0.0157079632679 made 401)
+    (['--azimuth-step', '0.0157079632679'], 400), (['--azimuth-step', '0.0999722299361', '--deg'], 3601),
+    (['--azimuth-step', '1.24567474048', '--deg'], 289), (['--azimuth-step', '6.28318530718'], 1),
+    (['--azimuth-step', '51.42857141', '--deg'], 7), (['--azimuth-step', '51.42857145', '--deg'], 7),
 ])
 def test_a_step_that_divides_a_turn_is_taken(capsys, argv, azimuths):
     tilt = ['--max-tilt', '1', '--tilt-step', '1'] if '--deg' in argv else ['--max-tilt', '0.01', '--tilt-step', '0.01']

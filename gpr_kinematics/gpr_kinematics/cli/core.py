@@ -233,18 +233,21 @@ def _check_sweep_options(args: argparse.Namespace, cfg: GprConfig) -> None:
 def _divides_a_turn(args: argparse.Namespace, typed: float) -> None:
     """Refuse an ``--azimuth-step`` that is not a whole part of a turn, within the tilt step's tolerance (1e-9 of the
     count; :func:`~gpr_kinematics.core.sweep.sweep_grid`): 7 deg swept 52 azimuths, 0 to 357 deg, and left a gap of
-    3 deg before 360 without a word. Named as typed, with the nearest steps that divide a turn."""
+    3 deg before 360 without a word. Named as typed, with the nearest steps that divide a turn (each taken as typed:
+    within the tolerance, and not below the least step)."""
+    from ..core.sweep import LEAST_STEPS, azimuth_count
     unit, turn = ('deg', 360.0) if args.deg else ('rad', 2.0 * math.pi)
     count = turn / typed   # at least 1: a step beyond a turn was refused
-    more = max(1, math.ceil(count - 1e-9))   # the azimuths the sweep makes (sweep_grid's count)
-    if abs(count - more) <= 1e-9 * max(1.0, count):
+    if azimuth_count(count) is not None:
         return
-    fewer = max(1, more - 1)
+    more = math.ceil(count)   # the azimuths the sweep makes
     last = (more - 1) * typed
+    least = math.degrees(LEAST_STEPS['azimuth_step']) if args.deg else LEAST_STEPS['azimuth_step']
+    nearest = [f'{turn / n:.12g} {unit} ({n} azimuth{"s" if n > 1 else ""})' for n in (more, more - 1)
+               if n >= 1 and turn / n >= least]
     raise InputError(f'--azimuth-step = {typed:g} {unit} does not divide a turn: its {more} azimuths from 0 to '
                      f'{last:.6g} {unit} leave {turn - last:.6g} {unit} before {"360 deg" if args.deg else "2pi rad"}; '
-                     f'allowed: a step that divides a turn a whole number of times, the nearest {turn / more:.12g} '
-                     f'{unit} ({more} azimuths) or {turn / fewer:.12g} {unit} ({fewer})')
+                     f'allowed: a step that divides a turn a whole number of times, the nearest {" or ".join(nearest)}')
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:

@@ -39,6 +39,8 @@ MAX_SAMPLES = 200_000
 #: The least steps [rad] of alpha and of the azimuth (``gpr sweep``, :func:`sweep_grid` and ``trajectory_node``'s
 #: parameters alike: the command line took 5e-8 rad, which the node refused).
 LEAST_STEPS = {'tilt_step': 1e-7, 'azimuth_step': 1e-4}
+#: A step's count of a turn within this share of a whole number is that number (a step typed to 12 digits).
+TURN_TOLERANCE = 1e-9
 #: Most passes of one sweep.
 MAX_PASSES = 1000
 
@@ -125,6 +127,13 @@ class SweepSummary:
     max_height_error: float
 
 
+def azimuth_count(turns: float) -> int | None:
+    """The azimuths of a step that makes ``turns`` steps a turn: the whole number within :data:`TURN_TOLERANCE` of it
+    (of the count; 401 rows for 2 pi / 400 typed to 12 digits, the last a repeat of the first), else None."""
+    n = round(turns)
+    return max(n, 1) if abs(turns - n) <= TURN_TOLERANCE * max(1.0, turns) else None
+
+
 def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TILT_STEP,
                azimuth_step: float = DEFAULT_AZIMUTH_STEP, passes: int = 1,
                serpentine: bool = True) -> tuple[Array, Array, NDArray[np.int64]]:
@@ -158,11 +167,11 @@ def sweep_grid(max_tilt: float = DEFAULT_MAX_TILT, tilt_step: float = DEFAULT_TI
         raise TiltStepsError(f'max_tilt = {brief(max_tilt)} rad is not a whole number (>= 1) of tilt steps '
                              f'({brief(tilt_step)} rad); allowed: a tilt_step that divides max_tilt a whole number of '
                              'times (every pass then crosses alpha = 0)')
-    if azimuth_step > 2 * math.pi:
+    if azimuth_step > 2 * math.pi * (1.0 + TURN_TOLERANCE):   # a turn typed to 12 digits is one
         raise InputError(f'azimuth_step = {brief(azimuth_step)} rad ({math.degrees(azimuth_step):.6g} deg) is more '
                          'than a turn; allowed: at most 2 pi rad (360 deg)')
     turns = 2 * math.pi / azimuth_step   # at most 62,832 (LEAST_STEPS)
-    n_gamma = max(1, math.ceil(turns - 1e-9))
+    n_gamma = azimuth_count(turns) or math.ceil(turns)
     samples = (2 * n_half + 1) * n_gamma * passes
     if samples > MAX_SAMPLES:
         raise InputError(f'the sweep would have {samples} samples ({2 * n_half + 1} tilts x {n_gamma} azimuths x '
