@@ -594,3 +594,27 @@ def test_the_one_pose_inverses_closure_is_bounded_by_max_iterations():
         with pytest.raises(ConvergenceError, match=r'^virtual-joint closure \(radial\) did not converge in 1 '
                                                    r'iterations( for sample 0)?: side-length error'):
             call(CFG.replace(max_iterations=1, model='radial'))
+
+
+@pytest.mark.parametrize('over, t, g, tool', [
+    ({'rod_directions': [[0.02, 0.0], [0.0, -0.03], [0.01, 0.01]], 'max_iterations': 60, 'model': 'compliant'},
+     -0.0332233, -0.712783, (0.05, 0.05, 0.0)),
+    ({'tilt_limit': math.radians(15), 'rod_directions': [[0.01, 0.0], [0.0, -0.01], [0.0, 0.0]], 'max_iterations': 60,
+      'model': 'offset'}, -0.199199, -1.41522, (0.05, 0.05, 0.0)),
+    ({'tilt_limit': math.radians(15), 'rod_directions': [[0.05, 0.0], [0.0, -0.05], [0.03, 0.02]],
+      'rod_offsets': [0.01, 0, -0.01], 'max_iterations': 60, 'model': 'compliant'}, 0.240441, 1.21047, (0, 0, 0)),
+])
+def test_the_heights_allowed_with_leaning_rods_are_solved_at_both_ends(over, t, g, tool):
+    """Leaning rods move their joints sideways as they extend, so the virtual joints' shift changes with the height:
+    the first order named ends 1.5 um (11 deg) and 10 um (14 deg) outside, or the naive range as 'about' where 12
+    iterations did not converge; each end is solved again where it lies now, with the most iterations."""
+    cfg = load_config(overrides=over)
+    for h in (-5.0, 5.0):
+        with pytest.raises(LimitError) as err:
+            inverse(h, t, g, cfg, tool=tool)
+        lo, hi = (float(v) for v in re.search(r'allowed heights: (\S+) \.\. (\S+) m', str(err.value)).groups())
+        for end, out in ((lo, lo - 10.0 ** (math.floor(math.log10(abs(lo))) - 5)),
+                         (hi, hi + 10.0 ** (math.floor(math.log10(abs(hi))) - 5))):
+            inverse(end, t, g, cfg, tool=tool)
+            with pytest.raises(LimitError, match='outside the stroke'):
+                inverse(out, t, g, cfg, tool=tool)

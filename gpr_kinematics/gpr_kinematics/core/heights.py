@@ -33,6 +33,8 @@ RodsAt = Callable[[int, float], Sequence[float]]
 #: solved [m]: the virtual joints move the rods by at most ~1.3 mm against the naive model (at a tilt of 15 deg,
 #: the largest tilt limit); the stroke itself is checked exactly after the solve.
 HEIGHT_MARGIN = 0.01
+#: Solves at each end of the allowed heights after the first order (each takes the shift where the end lies).
+END_STEPS = 3
 
 
 def height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Sequence[Value], config: GprConfig
@@ -105,16 +107,33 @@ def check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequence
 
 
 def _allowed(geo: MachineGeometry, i: int, h: float, n: Sequence[Value], tool: Sequence[Value], config: GprConfig,
-             rods_at: RodsAt) -> str:
-    """The heights allowed at sample ``i``'s tilt, from its rods solved at the height ``h`` [m] within the naive
-    range (the naive range, as 'about', where that solve fails)."""
+             rods_at: RodsAt, q: Sequence[float] | None = None) -> str:
+    """The heights allowed at sample ``i``'s tilt (:func:`allowed_heights`) from its rods ``q`` solved at the height
+    ``h`` [m] (solved here where not given), as a refusal prints them (the naive range, as 'about', where a solve
+    fails)."""
     ni, tool_i = ([_at(v, i) for v in w] for w in (n, tool))
     try:
-        lo, hi = solved_height_range(geo, rods_at(i, h), h, ni, tool_i, config)
+        lo, hi = allowed_heights(geo, lambda x: rods_at(i, x), rods_at(i, h) if q is None else q, h, ni, tool_i,
+                                 config)
     except (ConvergenceError, LimitError):   # not seen within the naive range: the naive range, as about
         lo_n, hi_n = height_range(ARRAY, geo, ni, tool_i, config)
         return f'about {float(lo_n):.6g} .. {float(hi_n):.6g} m'
     return f'{shown_inward(lo, hi)} m' if lo <= hi else 'none'
+
+
+def allowed_heights(geo: MachineGeometry, rods: Callable[[float], Sequence[float]], q: Sequence[float], h: float,
+                    n: Sequence[float], tool: Sequence[float], config: GprConfig) -> tuple[float, float]:
+    """The tool point's heights ``(lo, hi)`` [m] whose solved rods stay within the stroke at the normal ``n``:
+    :func:`solved_height_range` of the rods ``q`` solved at ``h``, then of the rods ``rods(end)`` solved at each end,
+    :data:`END_STEPS` times (leaning rods move their joints sideways as they extend, so the virtual joints' shift
+    changes with the height: the first order named an end 1.5 um short at a tilt of 11 deg)."""
+    lo, hi = solved_height_range(geo, q, h, n, tool, config)
+    for _ in range(END_STEPS):
+        if not lo <= hi:
+            break
+        lo, hi = solved_height_range(geo, rods(lo), lo, n, tool, config)[0], \
+            solved_height_range(geo, rods(hi), hi, n, tool, config)[1]
+    return lo, hi
 
 
 def _at(value: Value, i: int) -> float:
@@ -133,15 +152,13 @@ def solvable_heights(tilt: Array, azimuth: Array, config: GprConfig) -> tuple[Ar
 
 
 def check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: Value, t: Value, n: Sequence[Value],
-                        tool: Sequence[Value], config: GprConfig) -> None:
+                        tool: Sequence[Value], config: GprConfig, rods_at: RodsAt) -> None:
     """:func:`~gpr_kinematics.core.stroke.check_stroke` of the solved rods ``q``; a refusal names the target's
-    height and the heights allowed at its tilt too, from its solved rods (:func:`solved_height_range`: the naive
+    height and the heights allowed at its tilt too, those of the solved rods (:func:`allowed_heights`: the naive
     model's range named heights whose rods the virtual joints put micrometres outside)."""
     def heights(i: int, _k: int) -> str:   # of the sample check_stroke refuses
         hh, tt = _at(h, i), _at(t, i)
-        qi, ni, tool_i = ([_at(v, i) for v in w] for w in (q, n, tool))
-        lo, hi = solved_height_range(geo, qi, hh, ni, tool_i, config)
-        allowed = f'{shown_inward(lo, hi)} m' if lo <= hi else 'none'
+        allowed = _allowed(geo, i, hh, n, tool, config, rods_at, [_at(v, i) for v in q])
         return f': the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: {allowed}'
 
     check_stroke(ops, q, config, what='q', detail=heights)

@@ -233,7 +233,7 @@ def _solve(ops: Ops, result: type[Result], h: Value, t: Value, g: Value, tool: S
         q = [ops.where(active, q[k] + q_target[k] - q_now[k], q[k]) for k in range(3)]
         iterations = iterations + active
     if stroke:
-        check_solved_stroke(ops, geo, q, h, t, n_target, tool, config)
+        check_solved_stroke(ops, geo, q, h, t, n_target, tool, config, _rods_at(config, vjm.name, t, g, tool))
     check_tilt(ops, q, pose.tilt, config)   # a target within the slack may be answered a few ulps beyond it
     return assemble(ops, result, q, vjm, config, L, closure, pose), iterations
 
@@ -347,18 +347,23 @@ def inverse_parts(kernel: OnePose, h: float, t: float, g: float, tool: Sequence[
         raise _not_converged(geo, most, '', err)
     r02, r12, r22 = frame[2], frame[5], frame[8]
     if stroke:
-        check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg)
+        check_solved_stroke(SCALAR, geo, q, h, t, n_target, tool, cfg, _rods_at(cfg, kernel.model.name, t, g, tool))
     if abs(t) > cfg.tilt_limit - TILT_LIMIT_SLACK:   # the answer's tilt is the target's to the tolerance
         check_tilt(SCALAR, q, cast('float', tilt_of_normal(SCALAR, r02, r12, r22)[0]), cfg)   # as forward refuses
     return InverseParts(q, P, L, closure, frame, iterations, first)
 
 
 def _rods_at(config: GprConfig, model: str, t: Value, g: Value, tool: Sequence[Value]) -> RodsAt:
-    """The solved rods of target ``i`` at another height (stroke unchecked), for a refusal's allowed heights."""
+    """The solved rods of target ``i`` at another height (stroke unchecked), for a refusal's allowed heights: with
+    the most iterations allowed (leaning rods converge slowly: 12 left an end 'about' the naive model's)."""
+    kernel: list[OnePose] = []
+
     def rods(i: int, h: float) -> Sequence[float]:
+        if not kernel:   # built at the first refusal only
+            kernel.append(one_pose(config.replace(max_iterations=ITERATIONS[1]), model))
         ti, gi = (float(v) if np.ndim(v) == 0 else float(np.asarray(v)[i]) for v in (t, g))
         tool_i = [float(v) if np.ndim(v) == 0 else float(np.asarray(v)[i]) for v in tool]
-        return inverse_parts(one_pose(config, model), h, ti, gi, tool_i, stroke=False).q
+        return inverse_parts(kernel[0], h, ti, gi, tool_i, stroke=False).q
     return rods
 
 
