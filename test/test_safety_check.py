@@ -1218,3 +1218,20 @@ def test_a_pick_without_declared_wafers_finds_its_wafer_there_from_the_start():
     assert not report.safe and 0.0002 < report.min_clearance < 0.00024
     report = check_program(plan, None)[0]
     assert report.safe and report.min_clearance == pytest.approx(0.003879, abs=1e-6)
+
+
+@pytest.mark.parametrize('name', ['gpr_base', 'arm1_wafer', 'arm2_blade', 'wafer@pm1:start'])
+def test_an_obstacle_named_as_a_robot_body_is_refused(name):
+    """A pin named ``gpr_base`` read as the column colliding with a wafer (``arm1_wafer / gpr_base -1.049``), one
+    named ``arm1_wafer`` as ``arm1_wafer / arm1_wafer``: refused naming the robot's bodies."""
+    import dataclasses as dc
+
+    from gpr_kinematics.errors import ConfigError
+    from gpr_kinematics.safety.cell import load_cell
+    from gpr_kinematics.safety.check import check_program
+
+    cell = load_cell(CELL)
+    renamed = dc.replace(cell, obstacles=(dc.replace(cell.obstacles[0], name=name), *cell.obstacles[1:]))
+    with pytest.raises(ConfigError, match=rf"obstacle '{re.escape(name)}' has the name of a body of robot "
+                                          r'example_dual_arm; allowed: a name no robot body has .*gpr_platform\)$'):
+        check_program(PLAN, renamed)

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..callbacks import StageProgress, reporter
-from ..errors import InputError, brief
+from ..errors import ConfigError, InputError, brief
 from ..inputs.validation import switch
 from ..robot.plan import ProgramPlan, joint_limits
 from ..robot.timing import MAX_SAMPLES
@@ -204,6 +204,7 @@ def program_bodies(plan: ProgramPlan, cell: Cell | None, wafers: WaferPlan | Non
     wafers = wafer_plan(plan) if wafers is None else wafers
     robot = plan.robot
     bodies = robot_body_set(robot, wafers.carried)
+    _own_names(cell, bodies, robot.name)
     bodies += cell_bodies(None if cell is None else cell.in_frame(robot.world_frame))
     index = plan.program.stations.index()
     st = plan.program.stations.stations
@@ -222,6 +223,17 @@ def program_bodies(plan: ProgramPlan, cell: Cell | None, wafers: WaferPlan | Non
                 skip = wafers.contact.get((a.arm, station_of[b.name]), ())
         pairs.append((i, j, skip))
     return bodies, pairs
+
+
+def _own_names(cell: Cell | None, robot_bodies: list[Body], robot: str) -> None:
+    """Refuse an obstacle named as a body of the robot or a station's wafer (``wafer@...``): a pin called
+    ``gpr_base`` read as the column colliding with a wafer, one called ``arm1_wafer`` as ``arm1_wafer / arm1_wafer``."""
+    taken = {b.name for b in robot_bodies}
+    for name in () if cell is None else cell.names:
+        if name in taken or name.startswith('wafer@'):
+            raise ConfigError(f'{cell.source if cell else "cell"}: obstacle {name!r} has the name of a body of robot '
+                              f"{robot}; allowed: a name no robot body has and not starting 'wafer@' (its bodies: "
+                              f'{", ".join(sorted(taken))})')
 
 
 def trajectory_clearance(plan: ProgramPlan, cell: Cell | None, traj: JointTrajectory, margin: float = MARGIN,
