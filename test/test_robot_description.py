@@ -124,11 +124,16 @@ _DELETE = object()
      r'arm2_shoulder: length = 5e-324 is invalid; allowed: >= 1e-06 m for every joint but the last'),
     (('arms', 0, 'joints', 1, 'lower'), 3.0, r'arm1_elbow\): lower = 3.0 must be below upper = 2.9'),
     (('arms', 0, 'joints', 1, 'upper'), 7.0, r'upper = 7.0 is invalid; allowed: radians within \[-2pi, 2pi\]'),
-    (('arms', 0, 'joints', 1, 'velocity'), float('nan'), r'velocity must be a finite number in rad/s; got nan'),
+    (('arms', 0, 'joints', 1, 'velocity'), float('nan'),
+     r'velocity = nan is invalid; allowed: rad/s, 1e-06 <= velocity <= 100'),
     (('arms', 0, 'joints', 1, 'speed'), 1, r'arms\[0\] \(arm1\): joints\[1\] \(arm1_elbow\): unknown key\(s\) speed; '
                                            r'allowed keys: acceleration, height, jerk, length'),
     (('arms', 0, 'brnch'), 'left', r'arms\[0\] \(arm1\): unknown key\(s\) brnch; allowed keys: blade, branch, home'),
     (('arms', 0, 'blade', 'wafer_centre'), _DELETE, r'blade: wafer_centre = None is invalid'),
+    # not finite: the key's own range (a unitless coefficient was told "a finite number in ; got inf")
+    (('arms', 0, 'blade', 'friction'), float('inf'), r'blade: friction = inf is invalid; allowed: a static friction '
+                                                     r'coefficient, 0.001 to 2$'),
+    (('arms', 0, 'blade', 'vacuum'), float('nan'), r'blade: vacuum = nan is invalid; allowed: newtons, 0'),
     (('arms', 0, 'branch'), 'up', r"branch = 'up' is invalid; allowed: left or right"),
     (('arms', 0, 'home'), [0, 3.0, 0], r'home: arm1_elbow = 3.0 is invalid; allowed: within \[-2.9, 2.9\] rad'),
     (('arms', 0, 'redundancy'), {'rule': 'nearest'}, r'redundancy applies to 4-joint arms only; this arm has 3'),

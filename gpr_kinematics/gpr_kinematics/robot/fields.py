@@ -2,6 +2,7 @@
 angles, mappings, each refused with the file, the key, the value and what is allowed."""
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -22,7 +23,9 @@ def _where(source: str, path: str) -> str:
 def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float, allowed: str,
             default: float | None = None, unit: str = 'm') -> float:
     raw = data.get(key, default)
-    if is_huge_number(raw):   # beyond every number's bound: the key's own range, not that bound
+    # beyond every number's bound, or not finite: the key's own range (a friction of .inf was told "a finite number
+    # in ", the unit of a coefficient empty)
+    if is_huge_number(raw) or (isinstance(raw, float) and not math.isfinite(raw)):
         raise ConfigError(f'{where}: {key} = {brief(raw)} is invalid; allowed: {allowed}')
     value = number_key(data, key, where, default=default, positive=False, unit=unit)
     if not lo <= value <= hi:
