@@ -328,3 +328,30 @@ def test_sigmas_declared_a_third_above_the_noise_fail_the_sigmas_check():
         'is below 0.907 (the 0.1 % point for 2091 degrees of freedom), and the fit weights the positions too little: '
         'a sigma column in other units than the file\'s (mm or deg in a file in m and rad?), or the noise '
         'overstated; give the measurement noise.')
+
+
+def test_a_fit_whose_every_row_is_alone_has_no_cross_validation_and_fails_the_gate():
+    """Four rows of an arm (3 coordinates each) for 11 parameters: each row alone determines a combination, so no row
+    can be left out and predicted: its ratio was 1.0 and the gate passed with the report's ``nan um ... (line 0)``.
+    The ratio is NaN now, the gate check fails saying so, and the report prints '-' (independent: a square Jacobian
+    has every leverage 1)."""
+    from gpr_kinematics.calibration.quality import cross_validation
+    from gpr_kinematics.calibration.report import _residual_row
+    from gpr_kinematics.calibration.results import ResidualStats
+
+    rng = np.random.default_rng(5)
+    n, k = 4, 3
+    cv = cross_validation(rng.normal(size=(n * k, n * k)), rng.normal(size=(n, k)), np.ones((n, k)), [2, 3, 4, 5], 1.0)
+    assert math.isnan(cv.ratio) and cv.alone == (2, 3, 4, 5) and np.all(np.isnan(cv.errors))
+    params = CoreModel(load_config()).parameters
+    best = fitting.Minimum(theta=params.nominal, residual=np.full((4, 3), 0.5), cost=3.0, iterations=5,
+                           status='converged', at_bound=np.zeros(len(params), dtype=bool), step_se=0.01)
+    gate = _gate(best, params, np.arange(3), 1.0, 9, None, cv.ratio, tuple(f'line {j}' for j in range(4)), ())
+    assert not gate.passed and gate.message().startswith('No row can be left out: each alone determines a fitted '
+                                                         'combination')
+    row = _residual_row('left out', ResidualStats(math.nan, math.nan, math.nan, math.nan, 0, 0))
+    assert 'nan' not in row and 'line 0' not in row and row.split() == ['left', 'out', '-', '-', '-', '-']
+    # numbers wider than the columns stay apart (87659.617 um195626.998 um ran together)
+    wide = _residual_row('left out', ResidualStats(0.087659617, 0.195626998, 0.260011587, 0.576232923, 6, 6))
+    assert 'um 195626.998 um (line 6) 260011.587 urad 576232.923 urad (line 6)' in wide
+

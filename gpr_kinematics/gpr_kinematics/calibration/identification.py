@@ -301,7 +301,10 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
     checks.append(GateCheck('cross_validation', cv_ratio <= CV_GATE, cv_ratio, CV_GATE,
                             f'Rows left out are predicted {cv_ratio:.3g} times worse than the fit explains them '
                             f'(gate {CV_GATE:g}): some rows are fitted only because they are in the fit; largest '
-                            f'residuals {worst}{bounds}.'))
+                            f'residuals {worst}{bounds}.' if not math.isnan(cv_ratio) else
+                            'No row can be left out: each alone determines a fitted combination, so no other row '
+                            'checks it; allowed: more rows than the fitted parameters need (or fewer parameters '
+                            'free).'))
     # what a check found is said where it failed (a passed check's sentence read as a failure in the JSON)
     return Gate(tuple(c if not c.passed else replace(c, detail='') for c in checks))
 

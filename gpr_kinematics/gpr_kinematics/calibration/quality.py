@@ -122,8 +122,8 @@ def cross_validation(J: Array, residual: Array, weights: Array, lines: Sequence[
         press = float(np.sum((errors[ok] * weights[ok]) ** 2))
         expected = float(np.sum(np.trace(np.linalg.inv(M[ok]), axis1=1, axis2=2)))
         ratio = press / expected / chi2_reduced if chi2_reduced > 0 and expected > 0 else 1.0
-    else:
-        ratio = 1.0
+    else:   # every row alone determines a combination: nothing to predict a row by (a ratio of 1 passed the gate)
+        ratio = math.nan
     rows = np.flatnonzero(alone)
     return CrossValidation(errors, float(ratio), tuple(int(lines[int(i)]) for i in rows),
                            tuple(files[int(i)] for i in rows) if len(files) else ())

@@ -26,10 +26,14 @@ def micro(value: float, unit: str) -> str:
 
 
 def _residual_row(label: str, r: ResidualStats) -> str:
-    angle = (f'{r.rms_angle * 1e6:10.3f} urad{r.max_angle * 1e6:10.3f} urad '
+    """One row of the residuals' table: a space before every number (87659.617 um195626.998 um ran together), '-'
+    where there is none (a cross-validation without a row to leave out printed ``nan um ... (line 0)``)."""
+    angle = (f' {r.rms_angle * 1e6:9.3f} urad {r.max_angle * 1e6:9.3f} urad '
              f'({row_name(r.worst_angle_line, r.worst_angle_file)})' if math.isfinite(r.rms_angle)
              else f'{"-":>15}{"-":>25}')
-    return (f'  {label:<10}{r.rms_position * 1e6:10.3f} um{r.max_position * 1e6:10.3f} um '
+    if not math.isfinite(r.rms_position):
+        return f'  {label:<10}{"-":>13}{"-":>24}{angle}'
+    return (f'  {label:<10} {r.rms_position * 1e6:9.3f} um {r.max_position * 1e6:9.3f} um '
             f'({row_name(r.worst_position_line, r.worst_position_file)}){angle}')
 
 
@@ -49,7 +53,8 @@ def _checks(res: CalibrationResult) -> list[str]:
     lines = [f'fit: {c.status} (Gauss-Newton step left {c.step_se:.2g} standard errors){bound}; reduced chi-square '
              f'from each start: {starts}',
              f'cross-validation (each row predicted by the fit of the others): ratio {cv.ratio:.3g} to what the '
-             f'fit\'s residuals predict (gate {CV_GATE:g})']
+             f'fit\'s residuals predict (gate {CV_GATE:g})' if math.isfinite(cv.ratio) else
+             'cross-validation: none (each row alone determines a fitted combination: no row can be left out)']
     if cv.alone:
         alone = (', '.join(row_name(ln, f) for ln, f in zip(cv.alone, cv.alone_files, strict=True))
                  if cv.alone_files else 'line(s) ' + ', '.join(map(str, cv.alone)))
