@@ -318,13 +318,13 @@ ROBOT_STATE_CHECKS = ('robot.structure', 'robot.wafer_position', 'robot.wafer_or
 
 
 @pytest.mark.parametrize('topic, checks', [(ROBOT_STATE, ROBOT_STATE_CHECKS), (WAFER_POSE, ('topic.wafer_pose',))])
-@pytest.mark.parametrize('removed, fails', [(1, set()), (2, {284}), (285, set(range(1, 285)))])
+@pytest.mark.parametrize('removed, fails', [(1, set()), (2, {285}), (286, set(range(1, 286)))])
 def test_a_robot_topic_without_its_tail_fails(robot_bag: Path, tmp_path: Path, topic: str, checks: tuple[str, ...],
                                               removed: int, fails: set[int]) -> None:
-    """The robot topics of a robot program's 286 samples likewise: the last sample's RobotState or wafer pose lost
+    """The robot topics of a robot program's 287 samples likewise: the last sample's RobotState or wafer pose lost
     to a cut passes (its joint states then carry arm joints no RobotState gives: their rods are checked), two or
     all but the first removed fail at every state but the last (20 named, all counted)."""
-    result = verify_bag(tampered(robot_bag, tmp_path / 'cut', _tail_removed(topic, 286 - removed)))
+    result = verify_bag(tampered(robot_bag, tmp_path / 'cut', _tail_removed(topic, 287 - removed)))
     if not fails:
         assert result.passed, [f.line() for f in result.failures]
         return
@@ -344,25 +344,25 @@ def test_a_wafer_pose_topic_recorded_without_a_message_fails_but_at_the_ends(rob
     """An emptied companion topic had no columns to match and verify raised KeyError; now it fails at every state
     but the first and the last."""
     result = verify_bag(tampered(robot_bag, tmp_path / 'empty', _tail_removed(WAFER_POSE, 0)))
-    assert {(c.name, c.failed) for c in result.checks if c.failed} == {('topic.wafer_pose', 284)}
+    assert {(c.name, c.failed) for c in result.checks if c.failed} == {('topic.wafer_pose', 285)}
     assert result.failures[0].line() == (
         'FAIL topic.wafer_pose on /gpr/wafer_pose at sample 1: value inf > limit 1e-12 (inf = no message with the '
-        'stamp and frame of this RobotState; 284 missing of a topic without a message (samples 1 to 284; a recording '
+        'stamp and frame of this RobotState; 285 missing of a topic without a message (samples 1 to 285; a recording '
         "cut in the middle of a sample lacks only the last sample's))")
 
 
 def _robot_then_platform(tmp_path: Path) -> Path:
-    """A robot program's 286 samples, then a platform program's 45 (counters 286 to 330, its record's first sample
-    286): an idle node runs two gpr/run_program goals, the second a platform program, without RobotStates."""
+    """A robot program's 287 samples, then a platform program's 45 (counters 287 to 331, its record's first sample
+    287): an idle node runs two gpr/run_program goals, the second a platform program, without RobotStates."""
     robot = load_robot()
     msgs = robot_program_messages(robot, load_program(config_path('programs/example_robot_program.yaml')), 10.0)
 
     def later(topic: str, t: int, raw: bytes) -> tuple[str, int, bytes]:
         if topic == STATE:
-            raw = edited(GPR_TOPICS[topic], raw, lambda m: dataclasses.replace(m, sample=m.sample + 286))
+            raw = edited(GPR_TOPICS[topic], raw, lambda m: dataclasses.replace(m, sample=m.sample + 287))
         elif topic == PROGRAM_TOPIC:
             raw = edited(GPR_TOPICS[topic], raw, lambda m: dataclasses.replace(
-                m, data=m.data.replace('first_sample: 0\n', 'first_sample: 286\n', 1)))
+                m, data=m.data.replace('first_sample: 0\n', 'first_sample: 287\n', 1)))
         return topic, t, raw
 
     platform = platform_program_messages(load_platform_program(config_path('programs/example_stations.yaml')),
@@ -379,13 +379,13 @@ def test_robot_states_are_due_only_in_a_robot_program(tmp_path: Path) -> None:
     bag = _robot_then_platform(tmp_path)
     result = verify_bag(bag)
     assert result.passed, [f.line() for f in result.failures]
-    assert (result.counts[STATE], result.counts[ROBOT_STATE]) == (352, 286)   # and 66 samples of 6.5 s at 10 Hz
-    last = verify_bag(tampered(bag, tmp_path / 'last', _tail_removed(ROBOT_STATE, 285)))
-    assert _failed(last) == dict.fromkeys(ROBOT_STATE_CHECKS, {285})
+    assert (result.counts[STATE], result.counts[ROBOT_STATE]) == (353, 287)   # and 66 samples of 6.5 s at 10 Hz
+    last = verify_bag(tampered(bag, tmp_path / 'last', _tail_removed(ROBOT_STATE, 286)))
+    assert _failed(last) == dict.fromkeys(ROBOT_STATE_CHECKS, {286})
     empty = verify_bag(tampered(bag, tmp_path / 'empty', _tail_removed(ROBOT_STATE, 0)))
     assert empty.counts[ROBOT_STATE] == 0
     structure = next(c for c in empty.checks if c.name == 'robot.structure')
-    assert (structure.failed, structure.failures[0].sample, structure.failures[-1].sample) == (285, 1, 20)
+    assert (structure.failed, structure.failures[0].sample, structure.failures[-1].sample) == (286, 1, 20)
     assert structure.failures[0].detail == (
         'the robot states topic is recorded without a message; a sample of a robot program (gpr/program) without '
         'its RobotState (the first and the last state are not counted: a recording started or cut in the middle of '
@@ -400,7 +400,7 @@ def test_robot_states_at_a_platform_programs_samples_fail_structure(tmp_path: Pa
     msgs = messages_of(bag)
     ts = typestore()
     sample = {m[1]: ts.deserialize_cdr(m[2], GPR_TOPICS[STATE]).sample for m in msgs if m[0] == STATE}
-    platform = sorted(t for t, n in sample.items() if n >= 286)[:40]
+    platform = sorted(t for t, n in sample.items() if n >= 287)[:40]
     robot_states = [m for m in msgs if m[0] == ROBOT_STATE][:40]
     forged = [(ROBOT_STATE, t, edited(GPR_TOPICS[ROBOT_STATE], raw, lambda m, t=t: dataclasses.replace(
         m, sample=sample[t],
@@ -409,7 +409,7 @@ def test_robot_states_at_a_platform_programs_samples_fail_structure(tmp_path: Pa
               for (_, _, raw), t in zip(robot_states, platform, strict=True)]
     result = verify_bag(write_bag(tmp_path / 'forged', msgs + forged, dict(GPR_TOPICS)))
     structure = next(c for c in result.checks if c.name == 'robot.structure')
-    assert structure.failed == 40 and [f.sample for f in structure.failures] == list(range(286, 306))
+    assert structure.failed == 40 and [f.sample for f in structure.failures] == list(range(287, 307))
 
 
 def _record(msgs: list[tuple[str, int, bytes]]) -> tuple[str, int, bytes]:
@@ -467,9 +467,9 @@ def test_a_looping_sweeps_record_edited_to_loop_false_fails_naming_loop(tmp_path
 
 
 @pytest.mark.parametrize('count, detail', [
-    (1, 'the robot_program from sample 0 says loop = true; the recording has a stream from sample 286 after it (a '
+    (1, 'the robot_program from sample 0 says loop = true; the recording has a stream from sample 287 after it (a '
         'looping stream runs until the node stops)'),
-    (2, "the platform_program from sample 286 says loop = true; only the node's start-up stream loops, and it starts "
+    (2, "the platform_program from sample 287 says loop = true; only the node's start-up stream loops, and it starts "
         "at sample 0 (a gpr/run_program goal's stream never loops)")])
 def test_a_record_edited_to_loop_true_fails_where_the_recording_shows_no_loop(tmp_path: Path, count: int,
                                                                              detail: str) -> None:
