@@ -483,13 +483,13 @@ def test_the_largest_runs_the_limits_allow_fit_the_address_space(worker: Worker,
                     '-0.024', '0.024', '200', '--json'], tmp_path, timeout=120)
     check(o)
     assert o.status == 0 and o.out.endswith('"type": "gpr", "plot": null}\n'), o.describe()
-    program = tmp_path / 'long.yaml'   # the example program with a dwell: 498.0 s, at 400 Hz
+    program = tmp_path / 'long.yaml'   # the example program with a dwell: 498.03 s, at 400 Hz: 199213 samples
     program.write_text(Path(PROGRAM).read_text().replace('{dwell: 0.5}', '{dwell: 470}').replace(
         '../robots/example_robot.yaml', str(config_path('robots/example_robot.yaml'))))
     o = worker.run(['program', 'export', str(program), '--samples', 's.csv', '--rate', '400', '--json'], tmp_path,
                    timeout=120)
     check(o)
-    assert o.status == 0 and '"sample_count": 199192' in o.out, o.describe()
+    assert o.status == 0 and '"sample_count": 199213' in o.out, o.describe()
     table = tmp_path / 'joints.csv'
     table.write_text(JOINT_TABLE.split('\n')[0] + '\n' + ''.join(f'p{i},300,301,299,{i * 1e-4},1,-1\n'
                                                                 for i in range(10_000)))
