@@ -106,7 +106,12 @@ def test_rods_far_outside_the_stroke_unchecked_end_in_the_packages_error_as_in_t
             assert re.match(rf'(virtual-joint closure \({model}\)|{model} closure).* did not converge', str(exc))
             with pytest.raises(ConvergenceError) as batch, np.errstate(all='ignore'):
                 forward_batch(q[None, :], model=model, check_limits=False)
-            assert str(batch.value) == str(exc)   # one wording (the batch said "side-length error nan m")
+            # one wording (the batch said "side-length error nan m"); the error's last digits are the machine's (its
+            # BLAS: 2.022e-14 against 2.024e-14 m on one machine, equal on another)
+            number = r'[-+]?\d+\.?\d*(?:e[-+]?\d+)?'
+            assert re.sub(number, '#', str(batch.value)) == re.sub(number, '#', str(exc))
+            np.testing.assert_allclose([float(v) for v in re.findall(number, str(batch.value))],
+                                       [float(v) for v in re.findall(number, str(exc))], rtol=0.01)
             failed += 1
             continue
         assert np.all(np.isfinite(out.position)) and np.isfinite(out.tilt)

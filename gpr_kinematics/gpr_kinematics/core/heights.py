@@ -1,13 +1,15 @@
 """The heights a target of inverse kinematics may have: the stroke seen from the platform.
 
 Rod ``k`` of the naive model (:func:`~gpr_kinematics.core.naive.naive_rods`) is
-``N_k(h, n) = (h - c_k) / u_kz - o_k`` with ``c_k = n' . (p_k - tool)``, so the stroke ``[s_min, s_max]`` holds it
-for heights ``h`` within ``(s + o_k) u_kz + c_k``. The virtual joints shift the solved rods by ``d_k = q_k -
-N_k(h, n)`` (micrometres at the shipped 2 deg limit, up to about 1.3 mm at a tilt of 15 deg); a shift that the
-height hardly changes, so the solved rods stay within the stroke for ``h`` within ``(s + o_k - d_k) u_kz + c_k``
-(:func:`solved_height_range`). A target beyond the naive range by more than :data:`HEIGHT_MARGIN` is refused before
-the solve (:func:`check_height`), a solved one by its rods (:func:`check_solved_stroke`); both name the heights
-allowed at the target's tilt, those of the solved rods, shown rounded inward so that either end is solved.
+``N_k(h, n) = (h - c_k) / u_kz - o_k`` with ``c_k = n' . (p_k - tool)`` (:func:`tilt_term`), so the stroke
+``[s_min, s_max]`` holds it for heights ``h`` within ``(s + o_k) u_kz + c_k`` (:func:`height_range`). The virtual
+joints shift the solved rods by ``d_k = q_k - N_k(h, n)`` (micrometres at the shipped 2 deg limit, up to about 1.3 mm
+at a tilt of 15 deg), so the solved rods stay within the stroke for ``h`` within ``(s + o_k - d_k) u_kz + c_k``
+(:func:`solved_height_range`, first order: the shift is taken where the rods were solved). Leaning rods move their
+joints sideways as they extend, so the shift changes with the height: :func:`allowed_heights` solves again at each
+end, :data:`END_STEPS` times. A target beyond the naive range by more than :data:`HEIGHT_MARGIN` is refused before the
+solve (:func:`check_height`), a solved one by its rods (:func:`check_solved_stroke`); both name the heights allowed at
+the target's tilt, those of the solved rods, shown rounded inward so that either end is solved.
 """
 
 from __future__ import annotations
@@ -37,6 +39,12 @@ HEIGHT_MARGIN = 0.01
 END_STEPS = 3
 
 
+def tilt_term(geo: MachineGeometry, k: int, n: Sequence[Value], tool: Sequence[Value]) -> Value:
+    """``c_k = n' . (p_k - tool)`` [m] with ``n' = (-n_x, -n_y, n_z)``: how far the platform's tilt to the normal
+    ``n`` [-] lifts rod ``k``'s joint above the tool point ``tool`` [m] (module docstring)."""
+    return n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
+
+
 def height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Sequence[Value], config: GprConfig
                  ) -> tuple[Value, Value]:
     """The heights of the tool point at which the naive model's rods stay within the stroke, for platform
@@ -45,7 +53,7 @@ def height_range(ops: Ops, geo: MachineGeometry, n: Sequence[Value], tool: Seque
     lo: Value = 0.0
     hi: Value = 0.0
     for k in range(3):
-        c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
+        c = tilt_term(geo, k, n, tool)
         lo_k = (config.stroke_min + geo.offsets[k]) * geo.uz[k] + c
         hi_k = (config.stroke_max + geo.offsets[k]) * geo.uz[k] + c
         lo = lo_k if k == 0 else ops.maximum(lo, lo_k)
@@ -61,7 +69,7 @@ def solved_height_range(geo: MachineGeometry, q: Sequence[float], h: float, n: S
     naive = naive_rods(geo, h, n, tool)
     lo, hi = -math.inf, math.inf
     for k in range(3):
-        c = n[0] * (geo.px[k] - tool[0]) + n[1] * (geo.py[k] - tool[1]) + n[2] * tool[2]
+        c = tilt_term(geo, k, n, tool)
         d = float(q[k]) - float(naive[k])
         lo = max(lo, float((config.stroke_min + geo.offsets[k] - d) * geo.uz[k] + c))
         hi = min(hi, float((config.stroke_max + geo.offsets[k] - d) * geo.uz[k] + c))
@@ -111,7 +119,7 @@ def _allowed(geo: MachineGeometry, i: int, h: float, n: Sequence[Value], tool: S
     """The heights allowed at sample ``i``'s tilt (:func:`allowed_heights`) from its rods ``q`` solved at the height
     ``h`` [m] (solved here where not given), as a refusal prints them (the naive range, as 'about', where a solve
     fails)."""
-    ni, tool_i = ([_at(v, i) for v in w] for w in (n, tool))
+    ni, tool_i = ([at_sample(v, i) for v in w] for w in (n, tool))
     try:
         lo, hi = allowed_heights(geo, lambda x: rods_at(i, x), rods_at(i, h) if q is None else q, h, ni, tool_i,
                                  config)
@@ -136,7 +144,7 @@ def allowed_heights(geo: MachineGeometry, rods: Callable[[float], Sequence[float
     return lo, hi
 
 
-def _at(value: Value, i: int) -> float:
+def at_sample(value: Value, i: int) -> float:
     """Sample ``i`` of a value that is one float for every sample or one per sample."""
     return float(value) if np.ndim(value) == 0 else float(np.asarray(value)[i])
 
@@ -157,8 +165,8 @@ def check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: V
     height and the heights allowed at its tilt too, those of the solved rods (:func:`allowed_heights`: the naive
     model's range named heights whose rods the virtual joints put micrometres outside)."""
     def heights(i: int, _k: int) -> str:   # of the sample check_stroke refuses
-        hh, tt = _at(h, i), _at(t, i)
-        allowed = _allowed(geo, i, hh, n, tool, config, rods_at, [_at(v, i) for v in q])
+        hh, tt = at_sample(h, i), at_sample(t, i)
+        allowed = _allowed(geo, i, hh, n, tool, config, rods_at, [at_sample(v, i) for v in q])
         return f': the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: {allowed}'
 
     check_stroke(ops, q, config, what='q', detail=heights)

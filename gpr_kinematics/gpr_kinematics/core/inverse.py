@@ -51,7 +51,7 @@ from .forward import (
     one_result,
     solve_pose,
 )
-from .heights import HEIGHT_MARGIN, RodsAt, check_height, check_solved_stroke
+from .heights import HEIGHT_MARGIN, RodsAt, at_sample, check_height, check_solved_stroke
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, SCALAR, Ops, Value
@@ -361,9 +361,8 @@ def _rods_at(config: GprConfig, model: str, t: Value, g: Value, tool: Sequence[V
     def rods(i: int, h: float) -> Sequence[float]:
         if not kernel:   # built at the first refusal only
             kernel.append(one_pose(config.replace(max_iterations=ITERATIONS[1]), model))
-        ti, gi = (float(v) if np.ndim(v) == 0 else float(np.asarray(v)[i]) for v in (t, g))
-        tool_i = [float(v) if np.ndim(v) == 0 else float(np.asarray(v)[i]) for v in tool]
-        return inverse_parts(kernel[0], h, ti, gi, tool_i, stroke=False).q
+        return inverse_parts(kernel[0], h, at_sample(t, i), at_sample(g, i), [at_sample(v, i) for v in tool],
+                             stroke=False).q
     return rods
 
 
