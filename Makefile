@@ -25,7 +25,7 @@ STOCK_PY := $(STOCK_VENV)/bin/python
 STOCK_STAMP := $(STOCK_VENV)/.setup-stamp
 STOCK_INSTALL := install-stock
 STOCK_COLCON_STAMP := $(STOCK_INSTALL)/.colcon-stamp
-# The ROS domains of `make test`'s four runs: GPR_TEST_ROS_DOMAIN_ID (or one from the shell's pid) and the next three.
+# The ROS domains of `make test`'s five runs: GPR_TEST_ROS_DOMAIN_ID (or one from the shell's pid) and the next four.
 TEST_DOMAIN := $(or $(GPR_TEST_ROS_DOMAIN_ID),$(shell expr 10 + $$$$ % 200))
 DOMAIN_OF = GPR_TEST_ROS_DOMAIN_ID=$(shell expr \( $(TEST_DOMAIN) + $(1) \) % 233)
 # Inputs of the colcon build: a change to any of them rebuilds (colcon itself is incremental).
@@ -41,7 +41,7 @@ define COLCON_BUILD
 		--cmake-args -DPython3_EXECUTABLE="$(CURDIR)/$(1)" -DPYTHON_EXECUTABLE="$(CURDIR)/$(1)" -DBUILD_TESTING=OFF
 endef
 
-.PHONY: setup setup-stock test test-pinned test-pinned-ros test-pinned-rest-1 test-pinned-rest-2 test-quick test-core test-ros test-stock test-stock-run demo lint clean
+.PHONY: setup setup-stock test test-pinned test-pinned-ros test-pinned-rest-1 test-pinned-rest-2 test-quick test-core test-ros test-stock test-stock-run test-stock-ros test-stock-rest demo lint clean
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinematics/setup.py
 	@command -v cmake >/dev/null || { echo 'make setup: cmake not found (apt-get install cmake)' >&2; exit 1; }
@@ -82,21 +82,24 @@ $(STOCK_COLCON_STAMP): $(STOCK_STAMP) $(COLCON_INPUTS)
 
 setup-stock: $(STOCK_COLCON_STAMP)
 
-# The pinned suite and the stock one run side by side (their nodes mostly wait on DDS and timers), each in its own
-# ROS domain: the stock run takes GPR_TEST_ROS_DOMAIN_ID + 1 when that is set.
-# The pinned suite runs in three parts (the ROS tests; the rest in two parts by file) beside the stock run, the longest
-# first, two at a time: so both cores stay busy to the end. The first part of the rest follows the ROS tests, the
-# second the stock run, which takes about 2 min longer: the first is the longer by as much (measured in a fresh-clone
-# run of 2026-12-04: stock 530 s, ROS 401, the parts 390 and 189 with test_calibration_fit.py's 34 s in the first,
-# which now runs in the second).
+# The pinned suite and the stock one run side by side, each run in its own ROS domain (DOMAIN_OF 0 to 4): five runs,
+# three at a time. The ROS tests wait on DDS and timers (about 57 % of a core in a run alone: 432 s of wall time on
+# 251 s of CPU for the stock ROS tests, measured 2026-12-06), so the two ROS runs start first, beside the stock run's
+# rest, and the pinned rest's two parts take each core a ROS run leaves: the whole is about the CPU time of all five
+# runs over two cores (two at a time, the stock run whole, left a core idle while its ROS tests waited). The first
+# part of the pinned rest (the slow scenarios of calibration, bags and safety, lint and types) starts when the stock
+# ROS tests end, the second (the rest) when the next run ends.
 PINNED_HALF := $(filter-out test/test_calibration_fit.py,$(wildcard test/test_calibration_*.py test/test_ros_*.py \
 	test/test_bag_*.py test/test_safety_*.py test/test_lint.py test/test_types.py test/test_layout.py))
 PINNED_NOT_ROS = $(call DOMAIN_OF,$(1)) $(PY) -m pytest -q -p no:cacheprovider --durations=10 -m 'not ros'
+# The stock run (Python 3.12 and a stock install's versions) with pytest's marker expression $(2), in domain $(1).
+STOCK_RUN = GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(call DOMAIN_OF,$(1)) $(STOCK_PY) -m pytest -q -p no:cacheprovider \
+	--durations=10 test -m $(2) --ignore test/test_lint.py --ignore test/test_types.py --ignore test/test_layout.py
 
 test:
 	$(MAKE) --no-print-directory -j2 setup setup-stock
-	$(MAKE) --no-print-directory --output-sync=target -j2 test-stock-run test-pinned-ros test-pinned-rest-1 \
-		test-pinned-rest-2
+	$(MAKE) --no-print-directory --output-sync=target -j3 test-pinned-ros test-stock-ros test-stock-rest \
+		test-pinned-rest-1 test-pinned-rest-2
 
 test-pinned:
 	$(PY) -m pytest -q test
@@ -131,8 +134,13 @@ test-stock: setup-stock
 	$(MAKE) --no-print-directory test-stock-run
 
 test-stock-run:
-	GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(call DOMAIN_OF,2) $(STOCK_PY) -m pytest -q -p no:cacheprovider test \
-		-m 'not slow' --ignore test/test_lint.py --ignore test/test_types.py --ignore test/test_layout.py
+	$(call STOCK_RUN,2,'not slow')
+
+test-stock-ros:
+	$(call STOCK_RUN,2,'ros and not slow')
+
+test-stock-rest:
+	$(call STOCK_RUN,4,'not ros and not slow')
 
 # The demo: the example robot programmed through tilted stations with the naive model's wafer error
 # (robot.demo), a calibration from the shipped synthetic measurements (calibration.demo), then the
