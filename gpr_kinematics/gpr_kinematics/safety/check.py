@@ -142,11 +142,15 @@ class WaferPlan:
     contact: dict[tuple[str, str], Windows]
 
 
+#: The prefix of the body names of wafers lying in stations (:func:`station_wafer`), which no obstacle may take.
+STATION_WAFER = 'wafer@'
+
+
 def station_wafer(station: str, origin: str) -> str:
     """The body name of a wafer lying in ``station``: ``wafer@STATION:start`` for one there from the start (the
     program's ``wafers``), ``wafer@STATION:steps[K]`` for one the place ``steps[K]`` left there (a station may hold
     several in turn: ``wafer@STATION`` named them alike)."""
-    return f'wafer@{station}:{origin}'
+    return f'{STATION_WAFER}{station}:{origin}'
 
 
 def wafer_plan(plan: ProgramPlan) -> WaferPlan:
@@ -230,10 +234,10 @@ def _own_names(cell: Cell | None, robot_bodies: list[Body], robot: str) -> None:
     ``gpr_base`` read as the column colliding with a wafer, one called ``arm1_wafer`` as ``arm1_wafer / arm1_wafer``."""
     taken = {b.name for b in robot_bodies}
     for name in () if cell is None else cell.names:
-        if name in taken or name.startswith('wafer@'):
+        if name in taken or name.startswith(STATION_WAFER):
             raise ConfigError(f'{cell.source if cell else "cell"}: obstacle {name!r} has the name of a body of robot '
-                              f"{robot}; allowed: a name no robot body has and not starting 'wafer@' (its bodies: "
-                              f'{", ".join(sorted(taken))})')
+                              f"{robot}; allowed: a name no robot body has and not starting '{STATION_WAFER}' "
+                              f'(its bodies: {", ".join(sorted(taken))})')
 
 
 def trajectory_clearance(plan: ProgramPlan, cell: Cell | None, traj: JointTrajectory, margin: float = MARGIN,
