@@ -23,15 +23,7 @@ def run(capsys, *argv):
     return status, out, err
 
 
-@pytest.fixture(scope='module')
-def calibrated(tmp_path_factory):
-    path = tmp_path_factory.mktemp('cov') / 'cal.yaml'
-    status = main(['calibrate', SHIPPED, '--output', str(path), '--json', '--no-progress'])
-    assert status == 0
-    return path
-
-
-def test_the_calibrated_file_carries_the_fitted_parameters_covariance(calibrated, capsys, tmp_path):
+def test_the_calibrated_file_carries_the_fitted_parameters_covariance(capsys, tmp_path):
     path = tmp_path / 'again.yaml'
     status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(path), '--json')
     assert status == 0, err
@@ -45,7 +37,12 @@ def test_the_calibrated_file_carries_the_fitted_parameters_covariance(calibrated
     corr = cov.matrix / np.sqrt(np.outer(np.diag(cov.matrix), np.diag(cov.matrix)))
     np.testing.assert_allclose(corr, np.array(d['correlation']), atol=1e-9)
     assert '# covariance: of the 21 fitted parameters' in path.read_text()
-    assert load_config(path) == load_config(calibrated)            # the geometry as without the block
+    # the geometry as without the block (the same file's text up to it: a second fit of the same file, which this
+    # compared with, differed in the last digits on one machine, 0.0932830457162 against 0.0932830457109 m)
+    text = path.read_text()
+    plain = tmp_path / 'plain.yaml'
+    plain.write_text(text[:text.index('\ncovariance:\n') + 1])
+    assert load_covariance(plain) is None and load_config(path) == load_config(plain)
 
 
 def test_the_block_reloads_to_the_same_matrix(tmp_path):
