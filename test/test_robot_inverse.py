@@ -584,10 +584,11 @@ def test_stations_keep_their_own_positions():
     ('abc', "names must be a list of station names, got 'abc'"),
     (5, 'names must be a list of station names, got 5'),
     (['a', 'b'], 'names must name the 3 stations, got 2 names'),
+    (['a', 'b', 'a'], "names[2] = 'a' names station 0 again; allowed: each station named once"),
 ])
 def test_station_names_follow_one_rule(names, pattern):
     """stations_from_poses took a text as a list of names ('abc': stations a, b and c) and raised TypeError for 5;
-    Stations.of refused both: one rule for both."""
+    Stations.of refused both: one rule for both. A name given twice was taken (station files refuse it)."""
     from gpr_kinematics.robot.stations import stations_from_poses
 
     P = [[1.1, 0.5, 0.45]] * 3

@@ -69,7 +69,7 @@ def name_refusal(value: Any, label: str, hint: str = '') -> str:
 def station_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
     """The names of ``n`` stations: a list (or tuple, array) of ``n`` names, each as :func:`name_refusal` allows;
     ``None`` names them by index. Else InputError (a text is no list of names: ``'abc'`` made stations a, b and c;
-    None was named 'None')."""
+    None was named 'None'; a name given twice)."""
     if names is None:
         return tuple(str(i) for i in range(n))
     if isinstance(names, (str, bytes)) or not isinstance(names, Sequence | np.ndarray) or \
@@ -77,10 +77,15 @@ def station_names(names: Sequence[str] | None, n: int) -> tuple[str, ...]:
         raise InputError(f'names must be a list of station names, got {brief(names)}')
     if len(names) != n:
         raise InputError(f'names must name the {n} stations, got {len(names)} names')
+    first: dict[str, int] = {}   # a name given twice made its errors ambiguous (station files refuse it too)
     for i, name in enumerate(names):
         refusal = name_refusal(name, f'names[{i}]')
         if refusal:
             raise InputError(refusal)
+        if str(name) in first:
+            raise InputError(f'names[{i}] = {brief(name)} names station {first[str(name)]} again; allowed: each '
+                             f'station named once')
+        first[str(name)] = i
     return tuple(str(v) for v in names)   # numpy's str_ as str
 
 
