@@ -193,6 +193,27 @@ def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFix
     assert json.loads((tmp_path / 'rep' / 'verify.json').read_text())['passed'] is True
 
 
+def test_a_report_into_an_earlier_reports_folder_leaves_no_figure_of_the_other_bag(tmp_path: Path,
+                                                                                    capsys: pytest.CaptureFixture[str]
+                                                                                    ) -> None:
+    """A compliant bag's report written where a radial bag's was left its radial_virtual_joints.png (another bag's
+    figure beside this one's verify.json), a bag without states all eight: the figures this report does not draw
+    are removed (put back if the command fails: test_core_files)."""
+    from gpr_kinematics.bags.report import FIGURES
+    from gpr_kinematics.core.config import load_config
+
+    rep = tmp_path / 'rep'
+    assert run_cli('verify', str(REFERENCE), '--report', str(rep), capsys=capsys)[0] == 0
+    assert (rep / 'radial_virtual_joints.png').is_file()
+    assert {p.name for p in rep.iterdir()} - {'verify.json', 'verify.txt'} <= set(FIGURES)
+    comp = tmp_path / 'comp'
+    write_messages(comp, sweep_messages(config=load_config(overrides={'model': 'compliant'})))
+    assert run_cli('verify', str(comp), '--report', str(rep), capsys=capsys)[0] == 0
+    pngs = sorted(p.name for p in rep.glob('*.png'))
+    assert 'radial_virtual_joints.png' not in pngs and 'compliant_virtual_joints.png' in pngs
+    assert sorted(p.name for p in rep.iterdir() if p.name.startswith('.')) == []
+
+
 def test_the_report_figures_name_their_bag_and_quantities_and_mark_r_and_the_largest_shift() -> None:
     """The figures' y axes read 'mm' and 'deg' (which quantity?), their legends lay on the curves' right ends, no
     title named the bag, Fig. 6's l = R at the singular configurations had no line, and the centre shift's largest

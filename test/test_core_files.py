@@ -131,6 +131,37 @@ def test_a_command_that_fails_takes_back_every_output_it_wrote(tmp_path):
     assert [p.name for p in folder.iterdir()] == ['a.png']
 
 
+def test_a_file_a_command_removes_comes_back_when_it_fails_and_is_gone_when_it_ends(tmp_path):
+    """remove_output (an earlier report's figure the new one does not draw): renamed aside while the command runs,
+    put back when it raises (Ctrl-C too), gone when it ends; a folder, a link or a missing file is left alone; a file
+    another process wrote at the path meanwhile stays."""
+    stale, link, folder = tmp_path / 'old.png', tmp_path / 'link.png', tmp_path / 'dir.png'
+    stale.write_text('png of another bag')
+    link.symlink_to(stale)
+    folder.mkdir()
+    for error in (FileError('later output'), KeyboardInterrupt()):
+        with pytest.raises(type(error)), files.command_writes():
+            for p in (stale, link, folder, tmp_path / 'missing.png'):
+                files.remove_output(p)
+            assert not stale.exists() and link.is_symlink() and folder.is_dir()
+            raise error
+        assert stale.read_text() == 'png of another bag'
+        assert sorted(p.name for p in tmp_path.iterdir()) == ['dir.png', 'link.png', 'old.png']
+    with pytest.raises(FileError, match='later'), files.command_writes():
+        files.remove_output(stale)
+        stale.write_text('another process')
+        raise FileError('later output')
+    assert stale.read_text() == 'another process'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['dir.png', 'link.png', 'old.png']
+    with files.command_writes():
+        files.remove_output(stale)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['dir.png', 'link.png']
+    link.unlink()
+    (tmp_path / 'outside.png').write_text('x')
+    files.remove_output(tmp_path / 'outside.png')   # outside a command: removed at once
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['dir.png']
+
+
 def test_export_that_fails_on_its_second_output_leaves_the_first_as_it_was(tmp_path, monkeypatch, capsys):
     """`gpr program export --waypoints W --samples S` left W written when S could not be (a full disk)."""
     from gpr_kinematics.cli.main import main

@@ -24,7 +24,7 @@ from ..core import forward_batch
 from ..core.config import GprConfig, measured_points
 from ..core.virtual_joints import EDGE_NAMES
 from ..errors import FileError, GprError
-from ..inputs.files import atomic_output, output_folder, writable_folder, write_text
+from ..inputs.files import atomic_output, output_folder, remove_output, writable_folder, write_text
 from .errors import BagError
 from .results import VerifyResult, format_table
 
@@ -35,6 +35,12 @@ ZOOM = 12
 ZOOM_CROSSINGS = 3
 #: A stream of at most this many samples is drawn with a marker at each.
 MARKED_SAMPLES = 50
+#: Every figure a report may draw (:func:`report_figures`): those the report of another bag drew in the same folder
+#: and this one does not are removed (a model's own joints, every figure of a bag without states).
+FIGURES = ('fig05_rod_lengths.png', 'fig08_side_lengths.png', 'fig06_polar_linear_virtual_joints.png',
+           'fig07_polar_angular_virtual_joints.png', 'fig09_offset_linear_virtual_joints.png',
+           'fig10_offset_angular_virtual_joints.png', 'compliant_virtual_joints.png', 'radial_virtual_joints.png',
+           'centre_shift_vs_tilt.png')
 
 
 def _plt() -> Any:
@@ -146,6 +152,8 @@ def _write(result: VerifyResult, out: Path) -> list[Path]:
     finally:  # a write refused: the figures not written are closed too
         for _, fig in figures:
             _plt().close(fig)
+    for name in sorted(set(FIGURES) - {name for name, _ in figures}):
+        remove_output(out / name)   # an earlier report's figure of another bag: it stood beside this one's files
     return written
 
 

@@ -30,7 +30,7 @@ Two rules hold within a context (a ``contextvars`` context: a thread, a task):
   export --waypoints W --samples S`` left ``W`` when ``S`` could not be written). Only what still holds what the
   command wrote is taken back: an output another process replaced meanwhile is left as it is, and a command that
   ends to find one of its outputs replaced fails naming it (two commands writing the same pair of files both said
-  they had written it, each file of another command).
+  they had written it, each file of another command). Files it removed (:func:`remove_output`) are put back.
 
 Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, and
 what is allowed.
@@ -123,10 +123,12 @@ class _Written:
 
 @dataclass
 class _Writes:
-    """What the running command wrote (:class:`_Written`, in order) and the folders it created."""
+    """What the running command wrote (:class:`_Written`, in order), the folders it created and the files it removed
+    (``(target, backup)``: the target renamed to its backup until the command ends)."""
 
     files: list[_Written]
     folders: list[Path]
+    removed: list[tuple[Path, Path]]
 
     def undo(self) -> list[Path]:
         """Take back what still holds what the command wrote; the targets another process replaced or removed since,
@@ -145,6 +147,13 @@ class _Writes:
         for folder in reversed(self.folders):
             with contextlib.suppress(OSError):
                 folder.rmdir()   # only when empty
+        for target, backup in reversed(self.removed):
+            with contextlib.suppress(OSError):
+                if os.path.lexists(target):   # another process wrote there since: its file stays
+                    left.append(target)
+                    backup.unlink()
+                else:
+                    os.rename(backup, target)
         return left
 
     def replaced(self) -> list[Path]:
@@ -153,10 +162,10 @@ class _Writes:
         return [t for t, w in last.items() if not w.ours()]
 
     def keep(self) -> None:
-        for w in self.files:
-            if w.backup is not None:
+        for backup in [w.backup for w in self.files] + [b for _, b in self.removed]:
+            if backup is not None:
                 with contextlib.suppress(OSError):
-                    w.backup.unlink()
+                    backup.unlink()
 
     def close(self) -> None:
         for w in self.files:
@@ -181,7 +190,7 @@ _WRITES: contextvars.ContextVar[_Writes | None] = contextvars.ContextVar('gpr_co
 def command_writes() -> Iterator[None]:
     """Within the block, the outputs written are all kept when it ends normally, all taken back when it raises
     (module docstring)."""
-    writes = _Writes([], [])
+    writes = _Writes([], [], [])
     token = _WRITES.set(writes)
     clash = None
     try:
@@ -216,6 +225,19 @@ def output_folder(path: str | os.PathLike[str]) -> Path:
     if writes is not None:
         writes.folders.extend(reversed(missing))   # parents first: undone children first
     return folder
+
+
+def remove_output(path: Path) -> None:
+    """Remove the regular file ``path`` left by an earlier run (a report's figure the new one does not draw), taken
+    back with the command's other outputs if it fails (:func:`command_writes`); nothing else at ``path`` is touched."""
+    if not path.is_file() or path.is_symlink():
+        return
+    writes = _WRITES.get()
+    if writes is None:
+        return path.unlink()
+    backup = path.with_name(f'.{path.name}.{os.getpid()}.{len(writes.removed)}.removed')
+    os.rename(path, backup)
+    writes.removed.append((path, backup))
 
 
 def _replace(tmp: Path, target: Path) -> None:
@@ -262,10 +284,9 @@ def note_read(info: os.stat_result) -> None:
 
 def kind_of(mode: int) -> str:
     """What a file of ``st_mode`` ``mode`` is, for messages (``'a directory'``, ``'a FIFO'``, ...)."""
-    for test, name in ((stat.S_ISDIR, 'a directory'), (stat.S_ISFIFO, 'a FIFO'),
-                       (stat.S_ISCHR, 'a character device'), (stat.S_ISBLK, 'a block device'),
-                       (stat.S_ISSOCK, 'a socket'), (stat.S_ISLNK, 'a symbolic link'),
-                       (stat.S_ISREG, 'a regular file')):
+    for test, name in ((stat.S_ISDIR, 'a directory'), (stat.S_ISFIFO, 'a FIFO'), (stat.S_ISCHR, 'a character device'),
+                       (stat.S_ISBLK, 'a block device'), (stat.S_ISSOCK, 'a socket'),
+                       (stat.S_ISLNK, 'a symbolic link'), (stat.S_ISREG, 'a regular file')):
         if test(mode):
             return name
     return 'not a regular file'
@@ -408,11 +429,7 @@ def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False)
 
 
 def write_text(path: str | os.PathLike[str], text: str, what: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` through :func:`atomic_output`; returns the path written.
-
-    Raises:
-        FileError: see :func:`check_output`; the file cannot be written.
-    """
+    """Write ``text`` (UTF-8) to ``path`` through :func:`atomic_output` (its FileError); returns the path written."""
     with atomic_output(path, what) as fh:
         fh.write(text)
     return Path(path)
