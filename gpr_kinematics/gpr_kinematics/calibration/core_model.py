@@ -19,10 +19,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import base_points, forward_batch
+from ..core import forward_batch
 from ..core.config import GprConfig
 from ..core.geometry_covariance import KEY, GeometryCovariance, parse_covariance
-from ..core.machine import config_with_parameters, parameter_vector
+from ..core.machine import MachineGeometry, config_with_parameters, parameter_vector
+from ..core.naive import centres_tilt
+from ..core.ops import ARRAY
 from ..core.parameters import PARAMETER_NAMES, PARAMETERS
 from ..core.stroke import stroke_words
 from ..errors import ConfigError, InputError, brief
@@ -205,10 +207,9 @@ class CoreModel:
 def platform_tilts(q: Array, config: GprConfig) -> Array:
     """The tilts [rad] of the plane of the joint centres ``P_k`` at the rods ``q (N, 3)`` [m], which every
     virtual-joint model shares: what :func:`check_limits` and the accuracy budget bound by :data:`TILT_MARGIN` times
-    the tilt limit."""
-    P = base_points(q, config)
-    n = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
-    return np.asarray(np.arctan2(np.hypot(n[:, 0], n[:, 1]), n[:, 2]), dtype=float)
+    the tilt limit (:func:`~gpr_kinematics.core.naive.centres_tilt`, forward kinematics' check on leaning rods)."""
+    Q = np.asarray(q, dtype=float)
+    return np.asarray(centres_tilt(ARRAY, MachineGeometry.of(config), [Q[:, 0], Q[:, 1], Q[:, 2]]), dtype=float)
 
 
 def check_limits(meas: Measurements, config: GprConfig) -> None:

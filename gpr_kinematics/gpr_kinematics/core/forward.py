@@ -34,7 +34,7 @@ from ..inputs.validation import float_array, rows_of, switch, three_floats
 from .closure import solve_closure
 from .config import GprConfig, resolve_config
 from .machine import MachineGeometry
-from .naive import NaiveState, naive_state
+from .naive import NaiveState, centres_tilt, leaning, naive_state
 from .ops import ARRAY, SCALAR, Ops, Value
 from .platform_pose import FitFloats, PlatformPose, platform_pose
 from .rotations import tilt_of_normal
@@ -104,8 +104,7 @@ class _Forward(Generic[S, I, B]):
 
 @dataclass(frozen=True)
 class ForwardResult(_Forward[float, int, bool]):
-    """Forward kinematics of one configuration: the fields of :class:`_Forward` with floats for the angles,
-    residuals and ``iterations``, arrays ``(3,)``, ``(3, 3)``, ``(4,)`` for the vectors."""
+    """One configuration: :class:`_Forward`'s fields, floats (angles, residuals, ``iterations``), arrays (vectors)."""
 
     @property
     def normal(self) -> Array:
@@ -115,8 +114,7 @@ class ForwardResult(_Forward[float, int, bool]):
 
 @dataclass(frozen=True)
 class ForwardBatch(_Forward[Array, NDArray[np.int64], NDArray[np.bool_]]):
-    """Forward kinematics of ``N`` configurations: the fields of :class:`ForwardResult` with a leading
-    axis of length ``N`` (``model`` and ``virtual_joint_names`` are shared)."""
+    """``N`` configurations: :class:`ForwardResult`'s fields with a leading axis ``N`` (but ``_SHARED_FIELDS``)."""
 
     def __len__(self) -> int:
         return int(self.q.shape[0])
@@ -181,11 +179,11 @@ def beyond_tilt(tilt: float, limit: float, allowed: str = '|tilt|') -> str:
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:
-    """Refuse ``q`` whose naive tilt exceeds the limit by 5 % (the real tilt differs by < 0.1 %; the margin
-    keeps Newton inside its basin; the exact check follows the solve). Returns the naive state it computed."""
-    naive = naive_state(ops, geo, q)
+    """Refuse ``q`` whose naive tilt (leaning rods: :func:`~.naive.centres_tilt`) is 5 % beyond the limit (the real one
+    differs by < 0.1 %; the margin keeps Newton in its basin; the exact check follows). Returns the naive state."""
+    naive, lean = naive_state(ops, geo, q), leaning(geo)
     _, h2, _, _, nz = naive
-    n_tilt = ops.atan2(ops.sqrt(1.0 - ops.maximum(1.0 - h2, 0.0)), nz)
+    n_tilt = centres_tilt(ops, geo, q) if lean else ops.atan2(ops.sqrt(1.0 - ops.maximum(1.0 - h2, 0.0)), nz)
     too = (h2 >= 1.0) | (n_tilt > 1.05 * config.tilt_limit)
     if ops.any(too):
         i = int(np.argmax(np.where(np.atleast_1d(too), np.atleast_1d(n_tilt), -1.0)))
@@ -196,7 +194,8 @@ def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config
                               f'within {limit}')
         t = float(np.atleast_1d(n_tilt)[i])   # the real tilt is not solved so far out (0.62 rad for 0.80 here)
         raise LimitError(f'q = {q_rows(q)[i].tolist()} m{_sample(q, i)} tilts the platform by about {t:.4g} rad '
-                         f'({math.degrees(t):.4g} deg) in the naive model, beyond {limit}')
+                         f'({math.degrees(t):.4g} deg) {"as its joint centres" if lean else "in the naive model"}, '
+                         f'beyond {limit}')
     return naive
 
 
@@ -372,8 +371,9 @@ def forward_parts(q: ArrayLike, config: GprConfig, model: str | None = None, che
                 check_stroke(SCALAR, q3, config, typed=True)
         naive = kernel.naive(q0, q1, q2)
         h2, rest = naive[1], 1.0 - naive[1]
-        if h2 >= 1.0 or math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4]) > \
-                1.05 * config.tilt_limit:
+        t = centres_tilt(SCALAR, kernel.geometry, q3) if kernel.leaning else \
+            math.atan2(math.sqrt(1.0 - (rest if rest >= 0.0 else 0.0)), naive[4])
+        if h2 >= 1.0 or t > 1.05 * config.tilt_limit:
             _check_naive_tilt(SCALAR, kernel.geometry, q3, config)
     P, L, closure, frame = solve_parts(kernel, q3 if check_limits else check_bound(SCALAR, q3))
     if check_limits:

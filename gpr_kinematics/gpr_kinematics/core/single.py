@@ -29,7 +29,7 @@ from .compliance import Stiffness, minimum_cost_floats, stiffness
 from .config import GprConfig
 from .floats import tilt_matrix_of_normal_one, tilt_of_normal_one
 from .machine import Floats3, MachineGeometry
-from .naive import NaiveState
+from .naive import NaiveState, leaning
 from .ops import SCALAR
 from .platform_pose import FitFloats
 from .virtual_joints import Closure, Components, VirtualJointModel, make_model, not_converged, side_errors
@@ -45,11 +45,12 @@ class OnePose:
         config, geometry, model: the configuration, its :class:`~gpr_kinematics.core.machine.MachineGeometry` and
             its :class:`~gpr_kinematics.core.virtual_joints.VirtualJointModel`.
         names: the names of the virtual joints. rod_direction: the first rod's direction ``u_1`` (floats).
+        leaning: whether a rod leans (:func:`~gpr_kinematics.core.naive.leaning`).
     """
 
     __slots__ = ('config', 'geometry', 'model', 'names', '_rest', '_stiffness', '_directions', '_rest_xy', '_base',
                  '_radial_constants', '_naive_rods', 'rod_direction',
-                 '_strokes')
+                 '_strokes', 'leaning')
 
     def __init__(self, config: GprConfig, vjm: VirtualJointModel) -> None:
         self.config, self.model, self.names = config, vjm, vjm.names
@@ -66,6 +67,7 @@ class OnePose:
         self._strokes = tuple((s + o) * u for s in (config.stroke_min, config.stroke_max)   # height_range's
                               for o, u in zip(cast('Floats3', geo.offsets), cast('Floats3', geo.uz), strict=True))
         self.rod_direction = cast('Floats3', (geo.ux[0], geo.uy[0], geo.uz[0]))
+        self.leaning = leaning(geo)   # forward_parts' naive tilt check: the plane of the joint centres
         self._naive_rods = cast('tuple[Floats3, Floats3, Floats3, Floats3]', (geo.px, geo.py, geo.uz, geo.offsets))
         self._stiffness: Stiffness | None = None
         self._rest: Closure | None = None
