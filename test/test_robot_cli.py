@@ -460,11 +460,11 @@ def _moved_cell_program(tmp_path):
 def test_a_program_unsafe_in_its_cell_is_named_so_not_its_rate(capsys, tmp_path, rate):
     """A program whose own motion collides was refused for --trajectory as 'the spline ... leaves the checked
     program' at every rate, with the advice of a higher --rate and a bound of -582.560 mm: the program is named, with
-    the least distance gpr program check gives."""
+    the least distance gpr program check gives, and check's status 1 (it was 2, bad input, at every rate)."""
     program = _moved_cell_program(tmp_path)
     status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
                            '--rate', rate)
-    assert status == 2 and out == '' and not (tmp_path / 't.yaml').exists()
+    assert status == 1 and out == '' and not (tmp_path / 't.yaml').exists()
     # the wafer glides along the wall at that distance: the instant is any of the glide's (15.047 s on the stock
     # versions, 26.607 s on the pinned ones)
     assert re.fullmatch(r'gpr program export: error: the program itself is not safe in cell '
@@ -496,16 +496,22 @@ def _variant(tmp_path, robot_edit=None, gpr_line='', cell=True):
 def test_a_program_whose_wafer_slips_is_not_written_or_sent_as_a_trajectory(capsys, tmp_path):
     """The example cell program on blades of friction 0.1 (0.3 shipped): gpr program check finds it NOT safe (the
     wafer slips, ratio 2.259 = 3 x 0.753), yet --trajectory wrote it and send sent it (5,960 points) without a word:
-    refused now as a collision was, naming the slip where check does."""
+    refused now as a collision was, naming the slip where check does, with check's status 1 for an unsafe program
+    (it was 2, bad input): one line, no output written (the tables neither: all or none), nothing on stdout."""
     program = _variant(tmp_path, ('friction: 0.3', 'friction: 0.1'))
     status, out, _ = run(capsys, 'program', 'check', str(program), '--no-progress')
     assert status == 1 and ('  UNSAFE: the wafer slips on the blade (ratio 2.259 >= 1) at 54.683 s, steps[14] (place '
                             'load_port_1, approach)') in out.splitlines(), out
-    status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'))
-    assert (status, out) == (2, '') and not (tmp_path / 't.yaml').exists()
-    assert err == ('gpr program export: error: the program itself is not safe: the wafer slips on the blade (ratio '
-                   '2.259 >= 1) at 54.683 s, steps[14] (place load_port_1, approach) (no --rate helps); allowed: a '
-                   'program gpr program check finds safe (it names every pair and move)\n'), err
+    why = ('the program itself is not safe: the wafer slips on the blade (ratio 2.259 >= 1) at 54.683 s, steps[14] '
+           '(place load_port_1, approach) (no --rate helps); allowed: a program gpr program check finds safe (it '
+           'names every pair and move)\n')
+    status, out, err = run(capsys, 'program', 'export', str(program), '--waypoints', str(tmp_path / 'w.csv'),
+                           '--samples', str(tmp_path / 's.csv'), '--trajectory', str(tmp_path / 't.yaml'))
+    assert (status, out, err) == (1, '', f'gpr program export: error: {why}')
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['program.yaml', 'robot.yaml']
+    for json_option in ([], ['--json']):   # refused before ROS is looked for: no SendResult
+        status, out, err = run(capsys, 'program', 'send', str(program), '--timeout', '0.1', *json_option)
+        assert (status, out, err) == (1, '', f'gpr program send: error: {why}')
 
 
 def test_a_trajectory_whose_spline_makes_the_wafer_slip_is_refused_at_its_rate(capsys, tmp_path):
@@ -546,11 +552,14 @@ def test_a_trajectory_whose_spline_makes_the_wafer_slip_is_refused_at_its_rate(c
 
 def test_a_program_beyond_the_imperfection_budget_is_not_written_as_a_trajectory(capsys, tmp_path):
     """The example robot program (no cell: the robot against itself) under an imperfection budget of 30 um: check
-    finds 17 samples beyond it at 10 Hz (test_safety_check), --trajectory wrote it; now refused naming them."""
+    finds 17 samples beyond it at 10 Hz (test_safety_check), --trajectory wrote it; now refused naming them, with
+    check's status 1 at that rate (it was 2)."""
     program = _variant(tmp_path, gpr_line='imperfection_budget: 3.0e-5', cell=False)
+    status, out, _ = run(capsys, 'program', 'check', str(program), '--no-progress', '--rate', '10')
+    assert status == 1 and '  NOT safe' in out.splitlines(), out
     status, out, err = run(capsys, 'program', 'export', str(program), '--trajectory', str(tmp_path / 't.yaml'),
                            '--rate', '10')
-    assert (status, out) == (2, '') and not (tmp_path / 't.yaml').exists(), out
+    assert (status, out) == (1, '') and not (tmp_path / 't.yaml').exists(), out
     assert err == ('gpr program export: error: the program itself is not safe: 17 sample(s) at 10 Hz beyond the '
                    'imperfection budget of 30 um (the largest joint displacement 30.673 um at 16.500 s, steps[5] '
                    '(place chamber_a, at)) (no --rate helps); allowed: a program gpr program check finds safe (it '

@@ -13,12 +13,17 @@ from typing import Any
 
 #: Exit status of the ``gpr`` command and of the nodes for input they cannot use (one line on stderr).
 EXIT_BAD_INPUT = 2
+#: Exit status of the ``gpr`` command for usable input it refuses as not safe (:class:`UnsafeError`; ``gpr program
+#: check``'s NOT safe).
+EXIT_UNSAFE = 1
 #: Exit status of a command stopped by Ctrl-C (128 + SIGINT).
 EXIT_INTERRUPTED = 130
 
 
 class GprError(Exception):
-    """Base class of the package's errors."""
+    """Base class of the package's errors; ``exit_status``, the ``gpr`` command's when it ends with one."""
+
+    exit_status: int = EXIT_BAD_INPUT
 
 
 class ConfigError(GprError, ValueError):
@@ -39,6 +44,13 @@ class RobotStateError(LimitError):
 
 class NoPoseError(LimitError):
     """Rod lengths whose differences no tilt of the platform makes: beyond every limit, with no pose to show."""
+
+
+class UnsafeError(GprError):
+    """Usable input refused as not safe (a program ``gpr program check`` finds not safe, exported or sent): the ``gpr``
+    command exits :data:`EXIT_UNSAFE`, as the check does, not :data:`EXIT_BAD_INPUT`."""
+
+    exit_status = EXIT_UNSAFE
 
 
 class ConvergenceError(GprError, ArithmeticError):

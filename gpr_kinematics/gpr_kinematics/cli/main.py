@@ -8,7 +8,8 @@ the module of the subcommand being run is imported (all of them for ``gpr --help
 need only numpy, scipy and PyYAML. A subcommand whose optional dependency (the ``bags``, ``plot`` or ``ros``
 extra) is missing exits with status 2 and one line naming the package to install. Bad input raises a
 :class:`~gpr_kinematics.errors.GprError`; :func:`main` prints it as one line on stderr, after the command's full path
-(``gpr robot ik: error: ...``, as argparse's usage errors), and exits with status 2.
+(``gpr robot ik: error: ...``, as argparse's usage errors), and exits with its ``exit_status``: 2, or 1 for an
+:class:`~gpr_kinematics.errors.UnsafeError` (usable input refused as not safe).
 ``--json`` output is the result dataclass itself (:func:`gpr_kinematics.cli.output.jsonable`): one JSON key per field.
 """
 from __future__ import annotations
@@ -244,7 +245,7 @@ def _main(argv: Sequence[str] | None) -> int:
         return status
     except GprError as exc:
         sys.stderr.write(f'{command}: error: {one_line(str(exc))}\n')
-        return EXIT_USAGE
+        return exc.exit_status   # 2, bad input; 1 for an UnsafeError
     except MemoryError as exc:   # numpy's allocation of an input's arrays (a 20,000-row calibration under 650 MB)
         sys.stderr.write(f'{command}: error: out of memory: {one_line(str(exc)) or "an allocation failed"}; allowed: '
                          'inputs this machine has the memory for (fewer rows or samples, coarser settings)\n')

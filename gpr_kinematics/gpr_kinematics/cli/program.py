@@ -11,6 +11,8 @@ program's ``robot``, else the shipped example), ``--config FILE`` a GPR geometry
 ``--rate``, timed as ``--samples``); ``send`` (the ``ros`` extra, in a ROS environment) sends that trajectory, from
 where the robot is (``joint_states``), to a ``control_msgs/action/FollowJointTrajectory`` server and reports its
 progress and result: exit 0 when it succeeded, 1 when the server refused, aborted or never answered, 2 on bad input.
+Both refuse a program ``check`` finds not safe with status 1, as ``check`` (one line on stderr, nothing written or
+sent); a ``--rate`` at which the trajectory is refused and a higher one helps is bad input, status 2.
 """
 from __future__ import annotations
 

@@ -5,7 +5,9 @@ The program's trajectory at ``--rate`` (checked as ``gpr program export --trajec
 robot is (``joint_states``), sent to the action; its progress and result reported. Exit 0 when the goal succeeded, 1
 when the server refused or aborted it, none answered, no joint states came, another robot is there or the robot
 cannot start where it is (one line on stderr saying which; with ``--json`` the :class:`SendResult` on stdout too, its
-``failure`` that line), 2 on bad input. Needs the ``ros`` extra, in a ROS environment.
+``failure`` that line), 1 too for a program ``gpr program check`` finds not safe (refused before ROS is looked for, as
+``export --trajectory`` refuses it: one ``error:`` line, nothing on stdout), 2 on bad input (a ``--rate`` at which the
+trajectory is refused and a higher one helps among it). Needs the ``ros`` extra, in a ROS environment.
 """
 from __future__ import annotations
 

@@ -1,6 +1,8 @@
 """The trajectory ``gpr program export --trajectory`` writes and ``gpr program send`` sends, checked before either:
 as ``robot_simulator_node`` checks a goal, for the clearance of its spline in the program's cell, and against the
-program it stands for (a warning where its spline leaves it)."""
+program it stands for (a warning where its spline leaves it). A program ``gpr program check`` finds not safe is
+refused as it is (:class:`~gpr_kinematics.errors.UnsafeError`, status 1, as the check's); a trajectory refused at its
+``--rate`` where a higher one helps is bad input (:class:`~gpr_kinematics.errors.InputError`, status 2)."""
 from __future__ import annotations
 
 import math
@@ -9,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..errors import InputError
+from ..errors import InputError, UnsafeError
 from ..safety.margin import MARGIN
 
 if TYPE_CHECKING:
@@ -56,10 +58,11 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
 
 
 def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
-    """Refuse a program ``gpr program check`` finds not safe (:func:`~gpr_kinematics.safety.check.check_program`:
-    the clearance in its cell or against itself, the wafers' slip, the imperfection budget at ``rate``), naming the
-    first reason: a program whose wafer slipped (ratio 2.26 at a friction of 0.1) had its trajectory written and
-    sent. Without python-fcl the clearance is left out with a warning; whether it was checked."""
+    """Refuse (:class:`~gpr_kinematics.errors.UnsafeError`, status 1) a program ``gpr program check`` finds not safe
+    (:func:`~gpr_kinematics.safety.check.check_program`: the clearance in its cell or against itself, the wafers'
+    slip, the imperfection budget at ``rate``), naming the first reason: a program whose wafer slipped (ratio 2.26 at
+    a friction of 0.1) had its trajectory written and sent. Without python-fcl the clearance is left out with a
+    warning; whether it was checked."""
     from ..safety.cell import load_cell
     from ..safety.check import check_program
     cell = plan.program.cell
@@ -85,8 +88,8 @@ def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
         why = (f': {sum(f.samples for f in b.beyond)} sample(s) at {b.rate:g} Hz beyond the imperfection budget of '
                f'{b.budget * 1e6:g} um (the largest joint displacement {b.max_displacement * 1e6:.3f} um at '
                f'{b.max_at:.3f} s, {b.max_label})')
-    raise InputError(f'the program itself is not safe{why} (no --rate helps); '
-                     'allowed: a program gpr program check finds safe (it names every pair and move)')
+    raise UnsafeError(f'the program itself is not safe{why} (no --rate helps); '
+                      'allowed: a program gpr program check finds safe (it names every pair and move)')
 
 
 def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTrajectory, rate: float) -> None:
