@@ -533,6 +533,42 @@ def test_a_replay_that_falls_behind_its_bag_says_so(tmp_path: Path) -> None:
     assert 'finished: published /chatter 150000' in out, out
 
 
+def test_a_replay_of_a_bag_that_no_longer_matches_its_checksums_warns_once(tmp_path: Path) -> None:
+    """A bag whose MCAP file was written again with one message edited (its CRCs recomputed, its SHA-256 in
+    metadata.yaml not) and whose metadata.yaml gained a comment fails gpr verify's bag.checksums on both, yet was
+    replayed without a word. The replay warns once at the start, naming the bag and what differs, and still publishes
+    every message (a viewing tool); the untouched bag replays without the warning."""
+    import shutil
+
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+    from mcap_tamper import tampered
+
+    bag = tmp_path / 'chatter'
+    t0 = time.time_ns()
+    with SegmentedBagWriter(bag, {'/chatter': 'std_msgs/msg/String'}, fsync=False) as w:
+        for i in range(5):
+            w.write('/chatter', t0 + i * 10_000_000, bytes([0, 1, 0, 0, 3, 0, 0, 0]) + b'hi\x00')
+    edited = tampered(bag, tmp_path / 'edited', lambda topic, i, raw: raw.replace(b'hi', b'ho') if i == 2 else raw)
+    shutil.copyfile(bag / 'metadata.yaml', edited / 'metadata.yaml')   # the SHA-256 of the file as it was written
+    with open(edited / 'metadata.yaml', 'a') as f:
+        f.write('# reviewed\n')
+    failed = [(x.topic, x.detail) for x in verify_bag(edited).failures if x.check == 'bag.checksums']
+    assert failed == [('metadata.yaml', 'SHA-256 differs from the recorded one: metadata.yaml changed'),
+                      ('chatter_0.mcap', 'SHA-256 differs from the recorded one: the file changed')], failed
+    warning = (f'the bag {edited} does not match its recorded checksums (metadata.yaml: SHA-256 differs from the '
+               'recorded one: metadata.yaml changed; chatter_0.mcap: SHA-256 differs from the recorded one: the file '
+               'changed): gpr verify judges whether it can be trusted (its bag.checksums fails); replaying it as it is')
+    for path, warnings in ((bag, 0), (edited, 1)):
+        replay = start('replay_node', bag=path, rate=10.0)
+        try:
+            assert replay.wait(60) == 0, replay.output()
+        finally:
+            replay.stop()
+        out = replay.output()
+        assert out.count('does not match its recorded checksums') == out.count(warning) == warnings, out
+        assert 'finished: published /chatter 5' in out, out
+
+
 def test_a_replay_waits_for_its_state_publishers_joint_states_only(tmp_path: Path) -> None:
     """The replay launch's state publisher subscribes to joint_states only: waiting for every topic held the bag 10 s,
     not waiting lost its first 2 s of /tf. With ``wait_topic`` the replay starts once that one topic is subscribed,

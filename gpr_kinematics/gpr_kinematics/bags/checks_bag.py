@@ -143,7 +143,8 @@ def _schema_problems(bag: Bag) -> tuple[list[Problem], int]:
     return problems, checked
 
 
-def _checksum_check(bag: Bag, allow_missing: bool) -> Check:
+def checksum_check(bag: Bag, allow_missing: bool) -> Check:
+    """``bag.checksums`` (module docstring); ``replay_node`` warns by it too (with ``allow_missing``)."""
     name = 'bag.checksums'
     meta = bag.metadata
     if meta is None:
@@ -202,5 +203,5 @@ def bag_checks(bag: Bag, allow_missing_checksums: bool = False) -> list[Check]:
     else:
         problems, checked = _metadata_problems(bag)
         out.append(bag_check('bag.metadata', 'bag', problems, checked, ''))
-    out.append(_checksum_check(bag, allow_missing_checksums))
+    out.append(checksum_check(bag, allow_missing_checksums))
     return out

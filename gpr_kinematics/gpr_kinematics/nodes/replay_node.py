@@ -24,6 +24,9 @@ local, so a subscriber that starts during the replay still gets them, every one 
 robots' ``/tf_static``; at most ``queue_depth``). Exits 0 at the end of the bag (after the
 reliable publishers' acknowledgements, at most 5 s) or on SIGINT/SIGTERM; 2 with one ``cannot start:`` line when
 the bag cannot be read (missing, corrupt, not a regular file), a topic name is invalid or a parameter is invalid.
+A bag that no longer matches the checksums it carries (``gpr verify``'s ``bag.checksums``: a storage file or
+``metadata.yaml`` changed since it was written) is warned about once at the start, naming what differs, and
+replayed as it is; a bag without checksums (another recorder's) is not.
 """
 from __future__ import annotations
 
@@ -35,6 +38,7 @@ from typing import Any
 import numpy as np
 from rclpy.executors import Executor
 
+from ..bags.checks_bag import checksum_check
 from ..bags.errors import BagError
 from ..bags.reader import read_bag
 from ..bags.typestore import JOINT_STATES_TOPIC, KNOWN_TOPICS, LEGACY_JOINT_STATES_TOPIC, legacy_joint_states
@@ -106,6 +110,7 @@ class ReplayNode(GprNode):
         self._served, self._warned_behind = 0.0, False
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
+        self._warn_checksums(bag)
         for line in bag.unread():   # what gpr verify notes and does not read: here not replayed
             self.get_logger().warning(f'{line}: not replayed')
         legacy = legacy_joint_states(bag.topics, bag.namespace)
@@ -117,6 +122,19 @@ class ReplayNode(GprNode):
                 f'them before they moved to joint_states: a recorder with its default topics and a state publisher '
                 f'read joint_states (remap: -r {LEGACY_JOINT_STATES_TOPIC.lstrip("/")}:='
                 f'{JOINT_STATES_TOPIC.lstrip("/")}; replay.launch: joint_states:=gpr/joint_states)')
+
+    def _warn_checksums(self, bag: Any) -> None:
+        """Warn where ``bag`` no longer matches its recorded checksums (:func:`~gpr_kinematics.bags.checks_bag.
+        checksum_check`, as ``gpr verify`` checks them; none recorded: nothing to say): a tampered bag was replayed
+        without a word."""
+        check = checksum_check(bag, allow_missing=True)
+        if check.passed:
+            return
+        what = '; '.join(f'{f.topic}: {f.detail}' for f in check.failures)
+        more = check.failed - len(check.failures)
+        self.get_logger().warning(
+            f'the bag {self.p["bag"]} does not match its recorded checksums ({what}{f"; {more} more" if more else ""}):'
+            ' gpr verify judges whether it can be trusted (its bag.checksums fails); replaying it as it is')
 
     def published_name(self, bag: Any, name: str) -> str:
         """Where the bag's topic ``name`` is published: a topic of the node suite (recorded at the root or in the
