@@ -113,8 +113,38 @@ def test_a_tool_point_beyond_its_reach_is_named_as_the_option_with_the_hint_of_m
     reach = ('is beyond the reach of a tool point (304.795 m from the platform origin); allowed: at most 10 m from the '
              'platform origin (gpr_platform)')
     assert _error(capsys, *argv) == f'gpr {command}: error: --tool = (50, 20, 300) m {reach} (millimetres? give --mm)'
-    # in millimetres: no hint
-    assert _error(capsys, *argv[:-3], '50000', '20', '300', '--mm').endswith('(gpr_platform)')
+    # in millimetres: no hint, and the point as typed, in mm, the metres beside (it said "--tool = (50, 0.02, 0.3) m")
+    far = reach.replace('304.795', '50.0009')
+    assert _error(capsys, *argv[:-3], '50000', '20', '300', '--mm') == \
+        f'gpr {command}: error: --tool = (50000, 20, 300) mm ((50, 0.02, 0.3) m) {far}'
+
+
+@pytest.mark.parametrize('argv, option, typed', [
+    (['ik', '--height', '300', '--tilt', '0.1', '--azimuth', '0', '--deg', '--mm', '--tool', '20000', '0', '0'],
+     '--tool', '(20000, 0, 0) mm ((20, 0, 0) m) is beyond the reach of a tool point (20 m from the platform origin); '
+               'allowed: at most 10 m from the platform origin (gpr_platform)'),
+    (['compensate', '--height', '300', '--tilt', '0.1', '--azimuth', '0', '--deg', '--mm', '--tool', '0', '-12.5e3',
+      '1'], '--tool', '(0, -12500, 1) mm ((0, -12.5, 0.001) m) is beyond the reach of a tool point (12.5 m from the '
+                      'platform origin); allowed: at most 10 m from the platform origin (gpr_platform)'),
+    # gpr accuracy named the library's `tool` in metres
+    (['accuracy', 'gpr.yaml', '--tolerances', 'tolerances_example.yaml', '--pose', '0', '0', '500', '0.1', '0', '0',
+      '--mm', '--deg', '--samples', '0', '--tool', '20000', '0', '0'],
+     '--tool', '(20000, 0, 0) mm ((20, 0, 0) m) is beyond the reach of a tool point (20 m from the platform origin); '
+               'allowed: at most 10 m from the platform origin (gpr_platform)'),
+    (['accuracy', 'gpr.yaml', '--tolerances', 'tolerances_example.yaml', '--pose', '0', '0', '0.5', '0.001', '0', '0',
+      '--samples', '0', '--tool', '20', '0', '0'],
+     '--tool', '(20, 0, 0) m is beyond the reach of a tool point (20 m from the platform origin); allowed: at most '
+               '10 m from the platform origin (gpr_platform) (millimetres? give --mm)'),
+    (['robot', 'ik', '--position', '1300', '600', '450000', '--tilt', '1.2', '--azimuth', '30', '--heading', '20',
+      '--mm', '--deg'],
+     '--position', '(1300, 600, 450000) mm ((1.3, 0.6, 450) m); allowed: each coordinate within +-100 m of the world '
+                   'origin'),
+], ids=['ik', 'compensate', 'accuracy', 'accuracy-metres', 'robot-ik'])
+def test_a_point_typed_in_millimetres_is_named_as_typed(capsys, argv, option, typed):
+    """A point refused under `--mm` was named in the metres it became (`--tool = (20, 0, 0) m` for 20000 mm typed):
+    now as typed, in mm, the metres beside (`inputs.units.as_typed`, as a standard deviation's refusal names them)."""
+    command = ' '.join(argv[:2] if argv[0] == 'robot' else argv[:1])
+    assert _error(capsys, *argv) == f'gpr {command}: error: {option} = {typed}'
 
 
 # -- 7: an azimuth step that does not divide a turn --------------------------------------------------------------------

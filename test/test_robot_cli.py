@@ -736,10 +736,11 @@ def test_an_infinite_slip_ratio_is_the_text_inf_in_the_json(capsys, tmp_path):
 
 def test_a_station_position_beyond_the_world_bound_is_refused_with_the_hint_its_units_allow(capsys):
     """--position 2300000 0 400 --mm (2.3 km) was answered 'millimetres given as metres?' though --mm was given:
-    beyond the station files' 100 m it is refused, the millimetres hint only for numbers given as metres."""
+    beyond the station files' 100 m it is refused, the millimetres hint only for numbers given as metres; named as
+    typed, in mm, the metres beside (it said '--position = (2300, 0, 0.4) m')."""
     status, _, err = run(capsys, 'robot', 'ik', '--position', '2300000', '0', '400', '--heading', '0', '--mm')
-    assert status == 2 and err == ('gpr robot ik: error: --position = (2300, 0, 0.4) m; allowed: each coordinate '
-                                   'within +-100 m of the world origin\n')
+    assert status == 2 and err == ('gpr robot ik: error: --position = (2300000, 0, 400) mm ((2300, 0, 0.4) m); '
+                                   'allowed: each coordinate within +-100 m of the world origin\n')
     status, _, err = run(capsys, 'robot', 'ik', '--position', '2300', '0', '0.4', '--heading', '0')
     assert status == 2 and err.endswith('of the world origin (millimetres? give --mm)\n')
 

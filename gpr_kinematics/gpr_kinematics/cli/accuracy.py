@@ -53,6 +53,7 @@ from .options import (
     png_plot,
     pose_tilt,
     shipped,
+    tool_point,
     whole,
 )
 from .output import emit_json
@@ -139,12 +140,6 @@ def _kind(data: YamlValue) -> str:
     return 'mechanism'
 
 
-def _tool(args: argparse.Namespace) -> tuple[float, float, float]:
-    if args.tool is None:
-        return (0.0, 0.0, 0.0)
-    return (metres(args.tool[0], args.mm), metres(args.tool[1], args.mm), metres(args.tool[2], args.mm))
-
-
 def _gpr_config(args: argparse.Namespace, overrides: Mapping[str, YamlValue] | None = None) -> GprConfig:
     from ..core.config import load_config
     return load_config(args.config, overrides=overrides or None)
@@ -187,7 +182,7 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: Sta
         from ..robot.platform_program import parse_platform_program
         st = parse_platform_program(data, str(path)).stations
         return (platform_budget(_gpr_config(args), table, [s.height for s in st], [s.tilt for s in st],
-                                [s.azimuth for s in st], _tool(args), [s.name for s in st], options),
+                                [s.azimuth for s in st], tool_point(args), [s.name for s in st], options),
                 f'platform program {path.name}: {len(st)} station(s)')
     from ..mechanisms import mechanism_from_dict
     from ..mechanisms.gpr import GprMechanism
@@ -204,7 +199,7 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: Sta
     config = _gpr_config(args, data.get('overrides')) if args.config is not None else mech.config
     pose_tilt(args, pose[3], pose[4], config)   # named as typed, with the hint of degrees typed as radians
     tilt, azimuth = math.hypot(pose[3], pose[4]), math.atan2(pose[4], pose[3])
-    return (platform_budget(config, table, pose[2], tilt, azimuth, _tool(args), None, options),
+    return (platform_budget(config, table, pose[2], tilt, azimuth, tool_point(args), None, options),
             f'{mech.name}: height {pose[2]:g} m, tilt {tilt:.6g} rad about the axis at azimuth {azimuth:.6g} rad')
 
 

@@ -16,9 +16,9 @@ import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
 from ..core.virtual_joints import EDGE_NAMES
-from ..errors import InputError, LimitError, apart
+from ..errors import InputError, apart
 from ..inputs.units import metres
-from .options import direction, number, rod_lengths, typed_tilt, vec, whole
+from .options import direction, number, rod_lengths, tool_point, typed_tilt, vec, whole
 from .output import emit_json, json_object
 
 if TYPE_CHECKING:
@@ -96,23 +96,10 @@ def _add_target(p: argparse.ArgumentParser, command: bool = False) -> None:
                    'platform point (in gpr_platform) whose height is prescribed [m, or mm]; default origin')
 
 
-def _tool(args: argparse.Namespace) -> list[float]:
-    """``--tool`` in metres (``--mm`` converted), refused beyond a tool point's reach as the option (``compensate``
-    named the library's ``tool_offset``), with the hint of millimetres typed as metres where they would be within it."""
-    from ..core.inverse import TOOL_REACH, check_tool_point
-    tool = [_length(args, v) for v in args.tool]
-    try:
-        check_tool_point(tool, '--tool')
-    except LimitError as exc:
-        mm = not args.mm and math.hypot(*tool) / 1000.0 <= TOOL_REACH
-        raise LimitError(f'{exc}{" (millimetres? give --mm)" if mm else ""}') from None
-    return tool
-
-
 def _cmd_ik(args: argparse.Namespace) -> int:
     from ..core import inverse
     cfg = _config(args)
-    tool = _tool(args)
+    tool = tool_point(args)
     tilt = _angle(args, args.tilt)
     typed_tilt(args, '--tilt', tilt, args.tilt, cfg)   # named as the option, with the hint of degrees as radians
     ik = inverse(_length(args, args.height), tilt, direction(args, args.azimuth, '--azimuth'),
@@ -137,7 +124,7 @@ def _cmd_compensate(args: argparse.Namespace) -> int:
     # the tilt of the command's normal, as compensation checks it (2pi - 0.02 rad tilts it 0.02 rad)
     typed_tilt(args, '--tilt', tilt, args.tilt, cfg, tilt=abs(math.remainder(tilt, 2.0 * math.pi)))
     R = tilt_rotation(tilt, azimuth) @ rotation_z(heading)
-    res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R), _tool(args), config=cfg,
+    res = compensate([0.0, 0.0, _length(args, args.height)], quaternion_from_matrix(R), tool_point(args), config=cfg,
                      model=args.model)
     if args.json:
         emit_json(res)

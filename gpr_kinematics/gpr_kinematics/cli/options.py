@@ -6,7 +6,7 @@ import errno
 import math
 import os
 import re
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike
 from ..core.config import MODELS, GprConfig
 from ..errors import FileError, InputError, LimitError, apart, brief
 from ..inputs.resources import ROBOTS, Packaged, packaged_file
-from ..inputs.units import metres
+from ..inputs.units import as_typed, metres
 from ..inputs.validation import TURN, beyond_turn, decimal, finite_number, number_hint
 from ..mechanisms.base import Mechanism, as_poses
 
@@ -238,6 +238,27 @@ def program_plan(args: argparse.Namespace, rate: float | None = None
 def lengths(args: argparse.Namespace, values: Iterable[float]) -> list[float]:
     """Input lengths in metres (``--mm`` converted)."""
     return [metres(v, args.mm) for v in values]
+
+
+def typed_point(args: argparse.Namespace, typed: Sequence[float], si: Sequence[float]) -> str | None:
+    """A point typed in millimetres (``--mm``) as typed, metres beside (:func:`~..inputs.units.as_typed`), for a
+    refusal to name instead of the metres it became; None without ``--mm`` (the metres are as typed)."""
+    return as_typed(list(typed), list(si), 'm', 'mm') if getattr(args, 'mm', False) else None
+
+
+def tool_point(args: argparse.Namespace) -> list[float]:
+    """``--tool X Y Z`` in metres (``--mm`` converted; the origin if not given), refused beyond a tool point's reach
+    named as the option and as typed, with the hint of millimetres typed as metres where they would be within it."""
+    from ..core.inverse import TOOL_REACH, check_tool_point
+    if args.tool is None:
+        return [0.0, 0.0, 0.0]
+    tool = lengths(args, args.tool)
+    try:
+        check_tool_point(tool, '--tool', typed_point(args, args.tool, tool))
+    except LimitError as exc:
+        mm = not args.mm and math.hypot(*tool) / 1000.0 <= TOOL_REACH
+        raise LimitError(f'{exc}{" (millimetres? give --mm)" if mm else ""}') from None
+    return tool
 
 
 def angles(args: argparse.Namespace, values: Iterable[float]) -> list[float]:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .options import angles, direction, lengths, number, robot_of, robot_options, unit_options, vec
+from .options import angles, direction, lengths, number, robot_of, robot_options, typed_point, unit_options, vec
 from .output import emit_json
 
 if TYPE_CHECKING:
@@ -66,7 +66,8 @@ def _station_args(args: argparse.Namespace) -> Stations:
     azimuth = direction(args, args.azimuth, '--azimuth')
     heading = None if args.heading is None else [direction(args, args.heading, '--heading')]
     position = lengths(args, args.position)
-    check_world_position(position, '--position', '' if args.mm else ' (millimetres? give --mm)', InputError)
+    check_world_position(position, '--position', '' if args.mm else ' (millimetres? give --mm)', InputError,
+                         typed_point(args, args.position, position))   # as typed: --mm named the metres
     return Stations.of([position], tilt, azimuth, heading)
 
 

@@ -168,8 +168,9 @@ def ik_tolerances(config: GprConfig) -> tuple[float, float]:
     return cached
 
 
-def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
-    """Refuse tool points ``(3,)`` or ``(N, 3)`` [m] farther than :data:`TOOL_REACH` from the platform origin."""
+def check_tool(tools: ArrayLike, name: str = 'tool', typed: str | None = None) -> None:
+    """Refuse tool points ``(3,)`` or ``(N, 3)`` [m] farther than :data:`TOOL_REACH` from the platform origin;
+    ``typed``: the refused point as its user typed it, with its unit (``(20000, 0, 0) mm ((20, 0, 0) m)``)."""
     T = np.atleast_2d(np.asarray(tools, dtype=float))
     far = np.max(np.abs(T), axis=-1) > TOOL_REACH  # before the norm, which could overflow
     far |= np.sqrt(np.sum(np.where(far[:, None], 0.0, T) ** 2, axis=-1)) > TOOL_REACH
@@ -177,16 +178,17 @@ def check_tool(tools: ArrayLike, name: str = 'tool') -> None:
         i = int(np.argmax(far))
         where = f' (target {i})' if T.shape[0] > 1 else ''
         distance, reach = norm_text(tuple(float(v) for v in T[i]), TOOL_REACH)
-        raise LimitError(f'{name} = ({T[i, 0]:.6g}, {T[i, 1]:.6g}, {T[i, 2]:.6g}) m{where} is beyond the reach of a '
+        shown = f'({T[i, 0]:.6g}, {T[i, 1]:.6g}, {T[i, 2]:.6g}) m' if typed is None else typed
+        raise LimitError(f'{name} = {shown}{where} is beyond the reach of a '
                          f'tool point ({distance} m from the platform origin); allowed: at most {reach} m from the '
                          'platform origin (gpr_platform)')
 
 
-def check_tool_point(tool: Sequence[float], name: str = 'tool') -> None:
+def check_tool_point(tool: Sequence[float], name: str = 'tool', typed: str | None = None) -> None:
     """:func:`check_tool` of one point ``(x, y, z)`` [m] in floats: the exact check only when a coordinate lies beyond
     ``TOOL_REACH / 1.8`` (nearer, ``|tool| <= sqrt(3) / 1.8 TOOL_REACH < TOOL_REACH``)."""
     if max(abs(tool[0]), abs(tool[1]), abs(tool[2])) > TOOL_REACH / 1.8:
-        check_tool(tool, name)
+        check_tool(tool, name, typed)
 
 
 def _not_converged(geo: MachineGeometry, most: int, where: str, err: float) -> ConvergenceError:

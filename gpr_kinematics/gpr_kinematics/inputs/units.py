@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from typing import TypeVar
 
 import numpy as np
@@ -165,11 +166,19 @@ def scale(kind: str, unit: str | None, defaults: FileUnits, where: str, name: st
     return units[unit], unit
 
 
-def as_typed(typed: float, si: float, unit: str, own: str) -> str:
-    """A value as typed (its shortest decimal) in ``own`` (mm, deg), SI beside it: ``20 deg (0.349066 rad)``;
-    ``0.5 rad`` when ``own`` is the SI ``unit``."""
-    shown = repr(float(typed)).removesuffix('.0')
-    return f'{shown} {unit}' if own == unit else f'{shown} {own} ({si:.6g} {unit})'
+def as_typed(typed: float | Sequence[float], si: float | Sequence[float], unit: str, own: str) -> str:
+    """A value or a point as typed (each its shortest decimal) in ``own`` (mm, deg), SI beside it: ``20 deg
+    (0.349066 rad)``, ``(20000, 0, 0) mm ((20, 0, 0) m)``; ``0.5 rad`` when ``own`` is the SI ``unit``.
+
+    >>> as_typed(20.0, math.radians(20.0), 'rad', 'deg'), as_typed([20000, 0, -1.5], [20, 0, -0.0015], 'm', 'mm')
+    ('20 deg (0.349066 rad)', '(20000, 0, -1.5) mm ((20, 0, -0.0015) m)')
+    """
+    def shortest(v: float) -> str:
+        return repr(float(v)).removesuffix('.0')
+
+    shown = '(' + ', '.join(map(shortest, typed)) + ')' if isinstance(typed, Sequence) else shortest(typed)
+    si_shown = '(' + ', '.join(f'{float(v):.6g}' for v in si) + ')' if isinstance(si, Sequence) else f'{si:.6g}'
+    return f'{shown} {unit}' if own == unit else f'{shown} {own} ({si_shown} {unit})'
 
 
 def both_units(lo: float, hi: float | None, unit: str, own: str) -> str:

@@ -38,14 +38,16 @@ def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float,
 WORLD_BOUND = 100.0
 
 def check_world_position(xyz: Sequence[float], label: str, mm_hint: str = '',
-                         error: type[GprError] = ConfigError) -> None:
+                         error: type[GprError] = ConfigError, typed: str | None = None) -> None:
     """Refuse a station's position ``xyz`` [m] with a coordinate beyond :data:`WORLD_BOUND` (``error`` naming
     ``label``), for the station files, ``gpr robot ik`` and the station service alike; ``mm_hint`` (``{mm}``: the
-    farthest coordinate as millimetres [m]) is added where the numbers fit the world as millimetres."""
+    farthest coordinate as millimetres [m]) is added where the numbers fit the world as millimetres; ``typed``: the
+    position as its user typed it, with its unit (``(1300, 600, 450000) mm ((1.3, 0.6, 450) m)``)."""
     far = max(abs(float(v)) for v in xyz)
     if far > WORLD_BOUND:
         hint = mm_hint.format(mm=f'{far / 1000.0:g}') if far / 1000.0 <= WORLD_BOUND else ''
-        raise error(f'{label} = ({", ".join(f"{float(v):.6g}" for v in xyz)}) m; allowed: each coordinate within '
+        shown = f'({", ".join(f"{float(v):.6g}" for v in xyz)}) m' if typed is None else typed
+        raise error(f'{label} = {shown}; allowed: each coordinate within '
                     f'+-{WORLD_BOUND:g} m of the world origin{hint}')
 
 
