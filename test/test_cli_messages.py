@@ -147,6 +147,49 @@ def test_a_point_typed_in_millimetres_is_named_as_typed(capsys, argv, option, ty
     assert _error(capsys, *argv) == f'gpr {command}: error: {option} = {typed}'
 
 
+# -- a height typed in mm 1000 times too large: in mm too, never "millimetres given as metres?" -------------------
+GPR_POSE = ['gpr.yaml', '--pose', '0', '0', '300000', '0.001', '0', '0', '--mm']
+AT_POSE = ('height = 300 m (300000 mm) puts a rod outside the stroke [0, 0.508] m at the tilt 0.001 rad; allowed '
+           'heights: 8.07292e-05 .. 0.507919 m (0.0807292 .. 507.919 mm)')
+
+
+@pytest.mark.parametrize('argv, message', [
+    (['ik', '--mm', '--height', '300000', '--tilt', '0', '--azimuth', '0'],
+     'height = 300 m (300000 mm) puts a rod outside the stroke [0, 0.508] m at the tilt 0 rad; allowed heights: 0 .. '
+     '0.508 m (0 .. 508 mm)'),
+    # within 10 mm of the range: the solved rods refuse it, naming the height in mm too
+    (['ik', '--mm', '--height', '512', '--tilt', '0', '--azimuth', '0'],
+     'q1 = 0.512 m is outside the stroke [0, 0.508] m: the height 0.512 m (512 mm) at the tilt 0 rad needs it; '
+     'allowed heights there: 0 .. 0.508 m (0 .. 508 mm)'),
+    # compensate's height is its tool point's: in mm, not said to be as typed
+    (['compensate', '--mm', '--height', '300000', '--tilt', '1', '--azimuth', '0', '--deg', '--tool', '100', '0',
+      '50'],
+     'height = 300.049992 m (300049.992 mm) puts a rod outside the stroke [0, 0.508] m at the tilt 0.0174533 rad with '
+     'this tool point; allowed heights: 0.0514016 .. 0.556583 m (51.4016 .. 556.583 mm)'),
+    (['sweep', '--mm', '--height', '300000'],
+     'height = 300 m (300000 mm) puts a rod outside the stroke [0, 0.508] m at the tilt -0.0349066 rad; allowed '
+     'heights: 0.00281913 .. 0.50518 m (2.81913 .. 505.18 mm)'),
+    # --pose under --mm: the hint was offered though the height was typed in mm
+    (['mechanism', *GPR_POSE], AT_POSE),
+    (['accuracy', *GPR_POSE], AT_POSE),
+    (['accuracy', *GPR_POSE, '--tolerances', 'tolerances_example.yaml', '--samples', '0'], AT_POSE),
+    # rods: as typed, as before
+    (['fk', '--mm', '300000', '300000', '300000'],
+     'q1 = 300 m is outside the stroke [0, 0.508] m (300000 mm as typed; the stroke is [0, 508] mm)'),
+], ids=['ik', 'ik-solved', 'compensate', 'sweep', 'mechanism', 'accuracy', 'accuracy-budget', 'fk'])
+def test_a_height_typed_in_millimetres_is_named_in_millimetres_without_the_hint(capsys, argv, message):
+    """`gpr ik --mm --height 300000` said `height = 300 m ...; allowed heights: 0 .. 0.508 m`, in metres only, and
+    `gpr mechanism`/`gpr accuracy` with `--pose ... --mm` added "millimetres given as metres?" to a height typed in
+    mm: the height and the heights allowed are named in mm beside the metres, and no such hint under `--mm`."""
+    assert _error(capsys, *argv) == f'gpr {argv[0]}: error: {message}'
+    # the same numbers in metres keep the hint
+    if argv[0] in ('mechanism', 'accuracy'):
+        metres = [a for a in argv if a != '--mm']
+        metres[metres.index('300000')] = '300'
+        assert _error(capsys, *metres).endswith('; as millimetres it would be within them: millimetres given as '
+                                                'metres?')
+
+
 # -- 7: an azimuth step that does not divide a turn --------------------------------------------------------------------
 @pytest.mark.parametrize('argv, message', [
     (['--azimuth-step', '7', '--deg'],

@@ -150,7 +150,8 @@ def test_human_readable_output(capsys):
     (['fk', '300000', '300', '300', '--mm'], r'^gpr fk: error: q1 = 300 m is outside the stroke \[0, 0\.508\] m '
                                              r'\(300000 mm as typed; the stroke is \[0, 508\] mm\)$'),   # as typed
     (['ik', '--height', '500000', '--tilt', '0', '--azimuth', '0', '--mm'],
-     r'at the tilt 0 rad; allowed heights: 0 \.\. 0\.508 m$'),
+     r'^gpr ik: error: height = 500 m \(500000 mm\) puts a rod .* at the tilt 0 rad; allowed heights: 0 \.\. 0\.508 m '
+     r'\(0 \.\. 508 mm\)$'),   # in the unit typed too, the allowed heights in both
     (['fk', '300', '0.3', '0.3'], r'q1 = 300 m is outside the stroke \[0, 0\.508\] m; 300 mm would be within it: '
                                   r'millimetres given as metres\?$'),
     (['sweep', '--passes', '1001'], r'^gpr sweep: error: --passes = 1001; allowed: an integer from 1 to 1000$'),

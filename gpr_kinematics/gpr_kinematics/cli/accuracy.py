@@ -37,6 +37,7 @@ import numpy as np
 from ..calibration.core_model import MODEL
 from ..calibration.tolerances import MAX_TOLERANCE
 from ..callbacks import StageProgress
+from ..core.stroke import typed_in_millimetres
 from ..errors import InputError, apart, brief
 from ..inputs.resources import MECHANISMS_AND_PROGRAMS, ROBOTS, TOLERANCES, packaged_file
 from ..inputs.safe_yaml import YamlValue
@@ -199,8 +200,10 @@ def _budget(args: argparse.Namespace, data: YamlValue, path: Path, progress: Sta
     config = _gpr_config(args, data.get('overrides')) if args.config is not None else mech.config
     pose_tilt(args, pose[3], pose[4], config)   # named as typed, with the hint of degrees typed as radians
     tilt, azimuth = math.hypot(pose[3], pose[4]), math.atan2(pose[4], pose[3])
-    return (platform_budget(config, table, pose[2], tilt, azimuth, tool_point(args), None, options),
-            f'{mech.name}: height {pose[2]:g} m, tilt {tilt:.6g} rad about the axis at azimuth {azimuth:.6g} rad')
+    tool = tool_point(args)
+    with typed_in_millimetres(args.mm):   # the pose's height in mm: named so, not "millimetres given as metres?"
+        budget = platform_budget(config, table, pose[2], tilt, azimuth, tool, None, options)
+    return budget, f'{mech.name}: height {pose[2]:g} m, tilt {tilt:.6g} rad about the axis at azimuth {azimuth:.6g} rad'
 
 
 def budget_command(args: argparse.Namespace) -> int:
@@ -322,8 +325,9 @@ def _accuracy(args: argparse.Namespace) -> int:
         raise InputError(f'{mech.name}: give --pose X Y Z A B C (the file has no trajectory)')
     errors = _joint_errors(args, mech)
     params = _parameter_errors(args, mech)
-    full = mech.complete_pose(poses)
-    mech.check_limits(mech.inverse_kinematics(full))
+    with typed_in_millimetres(args.mm and args.pose is not None):   # a --pose in mm is named so (not a trajectory)
+        full = mech.complete_pose(poses)
+        mech.check_limits(mech.inverse_kinematics(full))
     # The text and the JSON print the same numbers: both from this report.
     report = accuracy_analysis(mech, full, errors, params).report(mech.kind)
     for warning in report.warnings:          # the JSON holds them too

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
+from ..core.stroke import typed_in_millimetres
 from ..mechanisms.pose_analysis import analyse_pose
 from .options import CONVENTIONS, finite, mechanism_of, mechanism_pose
 from .output import emit_json, number_text
@@ -32,7 +33,9 @@ if TYPE_CHECKING:
 
 def _mechanism(args: argparse.Namespace) -> int:
     mech = mechanism_of(args.file)
-    res = analyse_pose(mech, mechanism_pose(args, mech))
+    pose = mechanism_pose(args, mech)
+    with typed_in_millimetres(args.mm):   # --pose in mm (the file was read): named so, not "millimetres as metres?"
+        res = analyse_pose(mech, pose)
     if args.json:
         emit_json(res, file=str(args.file))
         return 0

@@ -25,7 +25,7 @@ from .config import GprConfig
 from .machine import MachineGeometry
 from .naive import naive_rods
 from .ops import ARRAY, Ops, Value
-from .stroke import check_stroke, within_as_millimetres
+from .stroke import check_stroke, lengths_in_millimetres, within_as_millimetres
 
 Array = NDArray[np.float64]
 #: The solved rods of one sample ``i`` of a check, at the height ``h`` [m] of its tool point (stroke unchecked).
@@ -107,11 +107,17 @@ def check_height(ops: Ops, geo: MachineGeometry, h: Value, t: Value, n: Sequence
                                          else '')
     stroke = f'the stroke [{config.stroke_min:g}, {config.stroke_max:g}] m'
     if lo_ > hv:
-        raise LimitError(f'height = {hi_:.9g} m{where}: every height puts a rod outside {stroke} {at}')
+        raise LimitError(f'height = {_height(hi_)}{where}: every height puts a rod outside {stroke} {at}')
     mm = '; as millimetres it would be within them: millimetres given as metres?' if within_as_millimetres(
         hi_, lo_, hv) else ''
-    raise LimitError(f'height = {hi_:.9g} m{where} puts a rod outside {stroke} {at}; allowed heights: '
+    raise LimitError(f'height = {_height(hi_)}{where} puts a rod outside {stroke} {at}; allowed heights: '
                      f'{_allowed(geo, i, min(max(hi_, lo_), hv), n, tool, config, rods_at)}{mm}')
+
+
+def _height(h: float) -> str:
+    """A height ``h`` [m] as a refusal names it: in metres, and in millimetres beside where the lengths were typed in
+    millimetres (:func:`~.stroke.typed_in_millimetres`: 300000 mm typed was named "300 m" alone)."""
+    return f'{h:.9g} m ({h * 1000.0:.9g} mm)' if lengths_in_millimetres() else f'{h:.9g} m'
 
 
 def _allowed(geo: MachineGeometry, i: int, h: float, n: Sequence[Value], tool: Sequence[Value], config: GprConfig,
@@ -125,8 +131,12 @@ def _allowed(geo: MachineGeometry, i: int, h: float, n: Sequence[Value], tool: S
                                  config)
     except (ConvergenceError, LimitError):   # not seen within the naive range: the naive range, as about
         lo_n, hi_n = height_range(ARRAY, geo, ni, tool_i, config)
-        return f'about {float(lo_n):.6g} .. {float(hi_n):.6g} m'
-    return f'{shown_inward(lo, hi)} m' if lo <= hi else 'none'
+        mm = f' (about {float(lo_n) * 1e3:.6g} .. {float(hi_n) * 1e3:.6g} mm)' if lengths_in_millimetres() else ''
+        return f'about {float(lo_n):.6g} .. {float(hi_n):.6g} m{mm}'
+    if not lo <= hi:
+        return 'none'
+    mm = f' ({shown_inward(lo * 1e3, hi * 1e3)} mm)' if lengths_in_millimetres() else ''
+    return f'{shown_inward(lo, hi)} m{mm}'
 
 
 def allowed_heights(geo: MachineGeometry, rods: Callable[[float], Sequence[float]], q: Sequence[float], h: float,
@@ -167,6 +177,6 @@ def check_solved_stroke(ops: Ops, geo: MachineGeometry, q: Sequence[Value], h: V
     def heights(i: int, _k: int) -> str:   # of the sample check_stroke refuses
         hh, tt = at_sample(h, i), at_sample(t, i)
         allowed = _allowed(geo, i, hh, n, tool, config, rods_at, [at_sample(v, i) for v in q])
-        return f': the height {hh:.9g} m at the tilt {tt:.6g} rad needs it; allowed heights there: {allowed}'
+        return f': the height {_height(hh)} at the tilt {tt:.6g} rad needs it; allowed heights there: {allowed}'
 
     check_stroke(ops, q, config, what='q', detail=heights)

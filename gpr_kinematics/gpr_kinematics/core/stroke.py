@@ -35,6 +35,12 @@ def typed_in_millimetres(on: bool) -> Iterator[None]:
         _TYPED_IN_MILLIMETRES.reset(token)
 
 
+def lengths_in_millimetres() -> bool:
+    """Whether the lengths checked now were typed in millimetres (within :func:`typed_in_millimetres`): a refusal
+    names them in mm beside the metres."""
+    return _TYPED_IN_MILLIMETRES.get()
+
+
 def q_rows(q: Sequence[Value]) -> NDArray[np.float64]:
     """Rod lengths as an array ``(N, 3)`` for messages (from floats or columns)."""
     return np.atleast_2d(np.stack([np.asarray(v, dtype=float) for v in q], axis=-1))
