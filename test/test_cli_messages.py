@@ -190,6 +190,45 @@ def test_a_height_typed_in_millimetres_is_named_in_millimetres_without_the_hint(
                                                 'metres?')
 
 
+# -- an integer option refused is named as typed --------------------------------------------------------------------
+BUDGET = ['accuracy', 'gpr.yaml', '--tolerances', 'tolerances_example.yaml', '--pose', '0', '0', '0.5', '0.001', '0',
+          '0']
+WORKSPACE = ['workspace', 'gpr.yaml', '--delta', '0.01']
+
+
+@pytest.mark.parametrize('argv, message', [
+    (['sweep', '--passes', '00'], '--passes = 00; allowed: an integer from 1 to 1000'),
+    (['sweep', '--passes', '01001'], '--passes = 01001; allowed: an integer from 1 to 1000'),
+    ([*BUDGET, '--samples', '-01'], '--samples = -01; allowed: an integer from 0 to 1000000'),
+    ([*BUDGET, '--seed', '-0001'], '--seed = -0001; allowed: an integer from 0 to 2**63 - 1'),
+    ([*BUDGET, '--calibration-plan', '+0'], '--calibration-plan = +0; allowed: an integer >= 1 (configurations)'),
+    (['calibrate', '--plan', '00', '--tolerances', 'tolerances_example.yaml'],
+     'plan size 00: 0 configuration(s) measured as poses give 0 residuals, too few to identify 24 parameters (gpr '
+     'calibrate refuses a file of so few rows); allowed: at least 5'),
+    ([*WORKSPACE, '--method', 'grid', '--grid-nodes', '01'],
+     '--grid-nodes = 01 is invalid; allowed: an integer of at least 2 (nodes per box edge)'),
+    ([*WORKSPACE, '--max-boxes', '00'], '--max-boxes = 00; allowed: a whole number of boxes, at least 1'),
+    ([*WORKSPACE, '--scheduler', 'local', '--workers', '000'], '--workers = 000; allowed: an integer from 1 to 256'),
+    (['dexterity', 'upu3.yaml', '--vary', 'z', '0.1', '0.2', '01'],
+     "--vary 'z': COUNT = 01; allowed: an integer from 2 to 50000 (poses per map)"),
+], ids=['passes', 'passes-beyond', 'samples', 'seed', 'calibration-plan', 'plan', 'grid-nodes', 'max-boxes',
+        'workers', 'vary-count'])
+def test_an_integer_option_refused_is_named_as_typed(capsys, argv, message):
+    """`gpr sweep --passes 00` said `--passes = 0`, the int it became: every integer option (`cli.options.whole`,
+    a `Whole` whose repr is its text) is named as typed, by the command line's checks and the library's alike."""
+    assert _error(capsys, *argv) == f'gpr {argv[0]}: error: {message}'
+
+
+def test_an_integer_option_taken_prints_its_number(capsys):
+    """As typed in refusals only: the output and the JSON print the number (`--passes 02` is 2 passes)."""
+    from gpr_kinematics.cli.options import whole
+    passes = whole(' 02')
+    assert (passes, repr(passes), str(passes), f'{passes}', json.dumps(passes), passes + 1) == (2, '02', '2', '2', '2',
+                                                                                              3)
+    status, out, _ = run(capsys, 'sweep', '--passes', '02', '--json')
+    assert status == 0 and json.loads(out)['passes'] == 2
+
+
 # -- 7: an azimuth step that does not divide a turn --------------------------------------------------------------------
 @pytest.mark.parametrize('argv, message', [
     (['--azimuth-step', '7', '--deg'],

@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core import naive_inverse
 from ..core.config import GprConfig
-from ..errors import InputError
+from ..errors import InputError, brief
 from ..inputs.validation import random_seed
 from .core_model import TILT_MARGIN
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
@@ -281,13 +281,13 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     k = 3 if points else 6
     least = least_rows(free_idx.size, k)
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n > min(C, MAX_PLAN):
-        raise InputError(f'plan size {n!r}; allowed: an integer from {least} to {min(C, MAX_PLAN)} (the fewest that '
-                         f'identify {free_idx.size} parameters, the number of candidate configurations within the '
+        raise InputError(f'plan size {brief(n)}; allowed: an integer from {least} to {min(C, MAX_PLAN)} (the fewest '
+                         f'that identify {free_idx.size} parameters, the number of candidate configurations within the '
                          f'stroke and tilt limits is {C})')
     if n < least:   # gpr calibrate refuses the file measured at such a plan
-        raise InputError(f'plan size {n}: {n} configuration(s) measured as {"points" if points else "poses"} give '
-                         f'{k * n} residuals, too few to identify {free_idx.size} parameters (gpr calibrate refuses '
-                         f'a file of so few rows); allowed: at least {least}')
+        raise InputError(f'plan size {brief(n)}: {n} configuration(s) measured as {"points" if points else "poses"} '
+                         f'give {k * n} residuals, too few to identify {free_idx.size} parameters (gpr calibrate '
+                         f'refuses a file of so few rows); allowed: at least {least}')
     theta0 = params.nominal if theta is None else np.asarray(theta, dtype=float)
     scale = prior_scale(params, prior)
     w = np.array([1.0 / sigma_position] * 3 + [0.0 if points else 1.0 / sigma_angle] * 3)

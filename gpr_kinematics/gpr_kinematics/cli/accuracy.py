@@ -113,11 +113,12 @@ def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
                          'table gives the errors (rod_length, parameters, joint_clearance)')
     from ..calibration.budget import MAX_SAMPLES
     if args.samples is not None and not 0 <= args.samples <= MAX_SAMPLES:   # the whole range, as the budget's
-        raise InputError(f'--samples = {args.samples}; allowed: an integer from 0 to {MAX_SAMPLES}')
+        raise InputError(f'--samples = {brief(args.samples)}; allowed: an integer from 0 to {MAX_SAMPLES}')
     if args.seed is not None and not 0 <= args.seed <= 2 ** 63 - 1:
-        raise InputError(f'--seed = {args.seed}; allowed: an integer from 0 to 2**63 - 1')
+        raise InputError(f'--seed = {brief(args.seed)}; allowed: an integer from 0 to 2**63 - 1')
     if args.calibration_plan is not None and args.calibration_plan < 1:
-        raise InputError(f'--calibration-plan = {args.calibration_plan}; allowed: an integer >= 1 (configurations)')
+        raise InputError(f'--calibration-plan = {brief(args.calibration_plan)}; allowed: an integer >= 1 '
+                         '(configurations)')
     if args.plot is not None:
         _check_plot(args)
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.config import MODELS, GprConfig, load_config
 from ..core.virtual_joints import EDGE_NAMES
-from ..errors import InputError, apart
+from ..errors import InputError, apart, brief
 from ..inputs.units import metres
 from .options import direction, number, rod_lengths, tool_point, typed_tilt, vec, whole
 from .output import emit_json, json_object
@@ -207,7 +207,7 @@ def _check_sweep_options(args: argparse.Namespace, cfg: GprConfig) -> None:
             shown = f'{math.degrees(least):g} deg' if args.deg else f'{least:g} rad'
             raise InputError(f'{option} = {value:g} {unit}; allowed: a step of at least {shown}')
     if not 1 <= args.passes <= sweep.MAX_PASSES:
-        raise InputError(f'--passes = {args.passes}; allowed: an integer from 1 to {sweep.MAX_PASSES}')
+        raise InputError(f'--passes = {brief(args.passes)}; allowed: an integer from 1 to {sweep.MAX_PASSES}')
     if args.azimuth_step is not None:   # beyond a turn: degrees typed as radians, as a typed direction
         direction(args, args.azimuth_step, '--azimuth-step')
         _divides_a_turn(args, args.azimuth_step)

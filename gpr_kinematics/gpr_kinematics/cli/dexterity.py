@@ -35,8 +35,8 @@ def _vary(args: argparse.Namespace, mech: Mechanism, base: np.ndarray, values: l
         raise InputError(f'--vary takes NAME MIN MAX COUNT (numbers, COUNT an integer from 2 to {MAX_POINTS}); '
                          f'got {brief(values)}') from None
     if not 2 <= n <= MAX_POINTS:
-        raise InputError(f'--vary {brief(name)}: COUNT = {n}; allowed: an integer from 2 to {MAX_POINTS} (poses per '
-                         'map)')
+        raise InputError(f'--vary {brief(name)}: COUNT = {brief(n)}; allowed: an integer from 2 to {MAX_POINTS} '
+                         '(poses per map)')
     if not (abs(lo) <= MAX_COORDINATE and abs(hi) <= MAX_COORDINATE) or not lo < hi:  # NaN fails both
         raise InputError(f'--vary {brief(name)}: need MIN < MAX, both finite and of magnitude at most '
                          f'{MAX_COORDINATE:g}; got {brief(values[1:])}')

@@ -61,12 +61,32 @@ def number(text: str) -> float:
     return value
 
 
+class Whole(int):
+    """An integer as :func:`whole` read it, its ``repr`` the text as typed: :func:`~..errors.brief` and every refusal
+    that quotes it name ``--passes = 00``, not the 0 it became; ``str``, formats and arithmetic are the int's."""
+
+    typed: str
+
+    def __new__(cls, text: str) -> Whole:
+        """The integer of ``text`` (checked by :func:`whole`), remembering it."""
+        obj = super().__new__(cls, text)
+        obj.typed = text.strip(' \t')
+        return obj
+
+    def __repr__(self) -> str:
+        return self.typed
+
+    def __str__(self) -> str:
+        return int.__repr__(self)
+
+
 def whole(text: str) -> int:
     """An argparse type: an integer of ASCII digits with an optional sign (Python's int also read ``1_000`` and the
-    digits of other scripts). Named ``int`` for argparse's message (``invalid int value: '1_0'``)."""
+    digits of other scripts), a :class:`Whole` (refusals quote it as typed). Named ``int`` for argparse's message
+    (``invalid int value: '1_0'``)."""
     if not _WHOLE.fullmatch(text.strip(' \t')):
         raise NumberTextError(f'invalid int value: {brief(text)}; allowed: a whole number of ASCII digits (e.g. 10)')
-    return int(text)
+    return Whole(text)
 
 
 number.__name__ = 'float'

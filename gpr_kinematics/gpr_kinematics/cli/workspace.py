@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import ConfigError, InputError
+from ..errors import ConfigError, InputError, brief
 from ..inputs.files import atomic_output, check_output, check_suffix, output_folder
 from ..inputs.safe_yaml import YamlValue, load_text
 from ..inputs.units import metres
@@ -139,11 +139,11 @@ def _check_args(args: argparse.Namespace) -> float:
     args.grid_nodes = 3 if args.grid_nodes is None else args.grid_nodes
     args.parts = PARTS if args.parts is None else args.parts
     if args.grid_nodes < 2:
-        raise InputError(f'--grid-nodes = {args.grid_nodes} is invalid; allowed: an integer of at least 2 (nodes per '
-                         'box edge)')
+        raise InputError(f'--grid-nodes = {brief(args.grid_nodes)} is invalid; allowed: an integer of at least 2 '
+                         '(nodes per box edge)')
     check_max_seconds(args.max_seconds, '--max-seconds')
     if not 1 <= args.parts <= 100_000:
-        raise InputError(f'--parts = {args.parts} is invalid; allowed: an integer from 1 to 100000')
+        raise InputError(f'--parts = {brief(args.parts)} is invalid; allowed: an integer from 1 to 100000')
     if args.boxes is not None:  # an empty name is refused, not ignored; a .npz (it overwrote a measurement CSV)
         check_output(args.boxes, '--boxes')
         if Path(args.boxes).suffix:   # a name without one is written as given
