@@ -108,6 +108,11 @@ def test_inverse_matches_core_and_reaches_target(client):
     assert res.tilt == pytest.approx(tilt, abs=1e-10)
     assert res.tilt_azimuth == pytest.approx(azimuth, abs=1e-8)
     assert res.iterations == core.iterations
+    assert res.message == (f'target x, y = (0.01, -0.02) m and heading 0.3 rad not honoured: x, y and the heading '
+                           f'are outcomes (the height and the tilt are honoured); reached x, y = '
+                           f'({core.achieved.position[0]:.9g}, {core.achieved.position[1]:.9g}) m, twist '
+                           f'{core.achieved.twist:.9g} rad')   # success: true with them dropped without a word
+    assert client.inverse_kinematics(height, tilt, azimuth).message == ''
     # Round trip through the forward service.
     fk = _fk(client, res.q)
     assert fk.success

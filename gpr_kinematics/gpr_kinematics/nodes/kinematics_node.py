@@ -81,8 +81,7 @@ def guarded(service: str) -> Callable[..., Any]:
                 message = f'internal error: {type(exc).__name__}: {one_line(exc)}'
                 self.get_logger().warning(f'{service}: {message}')
                 return _failed(response, message)
-            response.success = True
-            response.message = ''
+            response.success = True   # its message: '' or what a handler said (a fresh response each request)
             return response
 
         return inner

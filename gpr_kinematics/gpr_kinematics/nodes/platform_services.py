@@ -16,6 +16,7 @@ message built per field) from the core's result. SI units (metres, radians), qua
 """
 from __future__ import annotations
 
+import math
 from typing import Any, cast
 
 import numpy as np
@@ -48,10 +49,12 @@ def _set_achieved(response: Any, position: np.ndarray, quaternion: np.ndarray) -
 
 
 def answer_inverse(config: GprConfig, request: Any, response: Any) -> None:
-    """An InverseKinematics response (module docstring)."""
+    """An InverseKinematics response (module docstring); its ``message`` names a target's ``x``, ``y`` or heading,
+    which are outcomes, not requested (answered ``success: true`` without a word: a target 5 m off the axis)."""
     target = request.target
-    height = point_floats(target.position, 'target.position')[2]
-    R = matrix_of(quaternion_floats(target.orientation, 'target.orientation'))
+    x, y, height = point_floats(target.position, 'target.position')
+    quaternion = quaternion_floats(target.orientation, 'target.orientation')
+    R = matrix_of(quaternion)
     tilt, azimuth = cast('tuple[float, float]', tilt_of_normal(SCALAR, R[0][2], R[1][2], R[2][2]))
     ik = inverse(height, tilt, azimuth, config, model_name(request.model))
     fk = ik.achieved
@@ -61,6 +64,13 @@ def answer_inverse(config: GprConfig, request: Any, response: Any) -> None:
     response.tilt_azimuth = fk.tilt_azimuth
     response.twist = fk.twist
     response.iterations = ik.iterations
+    if x or y or quaternion[2]:   # a heading: the twist of R = tilt_rotation Rz(heading) is 2 atan2(q_z, q_w)
+        heading = 2.0 * math.atan2(quaternion[2], quaternion[3])
+        given = ([f'x, y = ({x:.9g}, {y:.9g}) m'] if x or y else []) + \
+            ([f'heading {math.remainder(heading, math.tau):.9g} rad'] if quaternion[2] else [])
+        response.message = (f'target {" and ".join(given)} not honoured: x, y and the heading are outcomes (the height '
+                            f'and the tilt are honoured); reached x, y = ({fk.position[0]:.9g}, {fk.position[1]:.9g}) '
+                            f'm, twist {fk.twist:.9g} rad')
 
 
 def answer_compensate(config: GprConfig, request: Any, response: Any) -> None:
