@@ -37,9 +37,10 @@ def run(capsys, *argv):
 
 def test_mechanism_analysis_prints_what_its_json_holds(capsys):
     """The GPR's joint imperfections move the platform sideways (an outcome, not a pose variable): the text prints
-    the rigid motion -33.3 um in x as the JSON has it, and every other number of the JSON."""
+    the rigid motion -66.6 um in y of joint 1 moved 0.1 mm tangentially as the JSON has it, and every other number of
+    the JSON; moved radially, the radial virtual joint takes it up whole (it read -33.3 um, a third of it)."""
     argv = ['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.5', '0.0349', '0', '0', '--parameter-error',
-            'joint_imperfections', '1e-4', '0', '0', '0', '0', '0', '0', '0', '0']
+            'joint_imperfections', '0', '1e-4', '0', '0', '0', '0', '0', '0', '0']
     for case in (argv, ['accuracy', 'stewart_alwan.yaml']):
         status, text, _ = run(capsys, *case)
         assert status == 0
@@ -62,8 +63,11 @@ def test_mechanism_analysis_prints_what_its_json_holds(capsys):
         assert k == len(rows)
     assert d['results'][0]['exact_twist'][0] != 0.0
     gpr = json.loads(run(capsys, *argv, '--json')[1])['results'][0]
-    assert gpr['exact_twist'][0] == pytest.approx(-1e-4 / 3, rel=1e-6)    # one joint 0.1 mm out: a third of it
-    assert re.search(r'^ +1 +linearized +-3\.3333e-05 ', run(capsys, *argv)[1], re.M)
+    assert gpr['exact_twist'][1] == pytest.approx(-6.6646e-05, rel=1e-4)    # about two thirds of the 0.1 mm
+    assert re.search(r'^ +1 +linearized +\S+ +-6\.6646e-05 ', run(capsys, *argv)[1], re.M)
+    radial = argv[:-9] + ['1e-4'] + ['0'] * 8
+    assert json.loads(run(capsys, *radial, '--json')[1])['results'][0]['exact_twist'][:3] == pytest.approx(
+        [0, 0, 0], abs=1e-14)
 
 
 def test_gpr_pose_budget(capsys):

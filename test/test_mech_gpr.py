@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gpr_kinematics.core import forward, inverse
+from gpr_kinematics.core import forward, forward_batch, inverse
 from gpr_kinematics.errors import ConfigError, LimitError
 from gpr_kinematics.inputs.resources import config_path
 from gpr_kinematics.mechanisms import load_mechanism, mechanism_from_dict
@@ -101,6 +101,33 @@ def test_accuracy_rod_errors_and_imperfections_second_order(gpr):
         assert np.max(np.abs(res.linearized)) > eps * 0.1
     assert 50 < diffs[0] / diffs[1] < 200 and 50 < diffs[1] / diffs[2] < 200
     assert 50 < twist_diffs[0] / twist_diffs[1] < 200
+
+
+def test_joint_imperfections_keep_every_joint_on_its_rod_tip(gpr):
+    """A joint displaced by delta_k (platform frame) is solved as the closure with r_k(X) + delta_k on the rod tip P_k
+    (a trial's own radial closure): the radial model's radial joints take a radial 0.1 mm whole (the platform stays;
+    it moved -33.3 um, a least-squares fit of the old X leaving each joint 33 um off its tip), a tangential one moves
+    the platform -66.6 um sideways and 2.3 um down. Each joint lands on its tip to 1e-14 m."""
+    from gpr_kinematics.core import base_points
+    from gpr_kinematics.core.virtual_joints import make_model
+
+    pose = np.array([0, 0, 0.5, 2 * DEG, 0, 0])
+    q = gpr.inverse_kinematics(pose)
+    nominal = gpr.forward_poses(q[None])[0]
+    for k, (d, moved) in enumerate(((1e-4, [0.0, 0.0, 0.0]), (1e-4, [-23.84e-9, -66.6464e-6, -2.3273e-6]))):
+        delta = np.zeros((3, 3))
+        delta[0, k] = d
+        imperfect = gpr.with_parameters({'joint_imperfections': delta})
+        out = imperfect.forward_poses(q[None])[0]
+        np.testing.assert_allclose(out[:3] - nominal[:3], moved, rtol=0, atol=1e-10)
+        R = imperfect.rotation(out[None])[0]
+        D = -(R @ delta.T).T   # the model's joints at P_k - R delta_k: the closure's virtual joints
+        X = forward_batch(q[None], gpr.config, check_limits=False, displacement=D[None]).virtual_joints
+        r2 = make_model(gpr.config).points_and_partials(X)[0][0]
+        joints = (R @ (np.column_stack([r2, np.zeros(3)]) + delta).T).T + out[:3]
+        np.testing.assert_allclose(joints, base_points(q[None], gpr.config)[0], rtol=0, atol=1e-14)
+    assert accuracy_analysis(gpr, pose, None, {'joint_imperfections': np.eye(3)[:1].T @ [[1e-4, 0, 0]]}
+                             ).exact_twist[0, :3] == pytest.approx([0, 0, 0], abs=1e-14)
 
 
 def test_rod_errors_alone_equal_forward_kinematics(gpr):

@@ -18,8 +18,11 @@ rotation ``R = tilt_rotation(alpha, gamma) @ Rz(twist)`` (:mod:`gpr_kinematics.c
   twists; any other twist is first projected on them (least squares, rotations weighted by ``L``).
 - Accuracy: rod-length errors ``dq`` and *virtual-joint imperfections* ``delta_k`` (3 x 3, m, platform
   frame): displacements of the joint centres beyond the virtual-joint model (play, wear) within the
-  imperfection budget. With them the platform pose is the least-squares rigid fit (Kabsch) of
-  ``r_k(X) + delta_k`` onto the rod tips ``P_k``; without them the fit is exact and equals the core's pose.
+  imperfection budget. With them the closure is solved again with each platform joint ``r_k(X) + delta_k`` on its
+  rod tip ``P_k`` (the core's ``forward_batch`` with the joint centres displaced by ``-R delta_k``, ``R`` the
+  platform's rotation, to a fixed point): the virtual joints take up what they can (a radial ``delta_k`` under the
+  radial model entirely). It was the least-squares fit of ``r_k(X) + delta_k`` with ``X`` unchanged, which left
+  each joint 33 um off its rod tip for a tangential 0.1 mm and moved the platform by half of the closure's answer.
 """
 from __future__ import annotations
 
@@ -30,7 +33,6 @@ from typing import Any
 import numpy as np
 
 from ..core.config import FLOAT_RANGES
-from ..core.rotations import kabsch
 from ..errors import ConfigError, InputError, LimitError, brief
 from ..inputs.schema import check_keys
 from ..inputs.validation import bounded, difference_step, newton_settings, rows_of
@@ -40,6 +42,9 @@ from .base import Mechanism, as_poses, rotation_vector
 TILT_DOMAIN = FLOAT_RANGES['tilt_limit'][1]
 
 FD_STEP = 1e-6  # m, central-difference step on the rod lengths
+#: The fixed point of joint imperfections (:meth:`GprMechanism.forward_poses`): each step moves the rotation by about
+#: ``|delta| / R`` of the last (1e-3 for 0.1 mm), so 5 steps reach 1e-18 m; at most this many, to this change [m].
+IMPERFECTION_STEPS, IMPERFECTION_TOLERANCE = 12, 1e-18
 
 
 def _tilt_vector(R: np.ndarray) -> np.ndarray:
@@ -49,14 +54,6 @@ def _tilt_vector(R: np.ndarray) -> np.ndarray:
     t = np.arctan2(s, n[..., 2])
     factor = np.where(s > 1e-300, t / np.where(s > 1e-300, s, 1.0), 1.0)
     return np.stack([-n[..., 1] * factor, n[..., 0] * factor], axis=-1)
-
-
-def _kabsch(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares rigid transforms ``dst ~ R src + t`` for point sets ``(N, K, 3)`` (:func:`~..core.rotations.kabsch`
-    of the centred sets)."""
-    cs, cd = src.mean(axis=1), dst.mean(axis=1)
-    R = kabsch(src - cs[:, None], dst - cd[:, None])
-    return R, cd - np.einsum('nij,nj->ni', R, cs)
 
 
 class GprMechanism(Mechanism):
@@ -129,9 +126,8 @@ class GprMechanism(Mechanism):
 
     def forward_poses(self, joints: Any) -> np.ndarray:
         """Complete poses ``(N, 6)`` reached with rod lengths ``(N, 3)`` (m), imperfections included."""
-        from ..core import base_points, forward_batch
+        from ..core import forward_batch
         from ..core.rotations import tilt_from_matrix
-        from ..core.virtual_joints import make_model
         # NaN named as such (it read as farther than the stroke range)
         Q = rows_of(joints, 'q', 3, [f'{self.name}: q{k}' for k in (1, 2, 3)])
         span = self.config.stroke_max - self.config.stroke_min
@@ -140,12 +136,14 @@ class GprMechanism(Mechanism):
             raise LimitError(f'{self.name}: q{k + 1} = {Q[i, k]:.6g} m is farther than the stroke range {span:g} m '
                              'from the middle of the stroke; allowed: rod lengths a GPR can approach')
         fb = forward_batch(Q, self.config, check_limits=False)
-        if np.any(self.imperfections):
-            r2, _, _ = make_model(self.config).points_and_partials(fb.virtual_joints)
-            r = np.concatenate([r2, np.zeros(r2.shape[:-1] + (1,))], axis=-1) + self.imperfections
-            R, pos = _kabsch(r, base_points(Q, self.config))
-        else:
-            R, pos = fb.rotation, fb.position
+        D = np.zeros((Q.shape[0], 3, 3))
+        for _ in range(IMPERFECTION_STEPS if np.any(self.imperfections) else 0):
+            # the joint p_k + delta_k on the rod tip P_k: the model's p_k at P_k - R delta_k, R the pose's rotation
+            D, before = -np.einsum('nij,kj->nki', fb.rotation, self.imperfections), D
+            if np.max(np.abs(D - before)) <= IMPERFECTION_TOLERANCE:
+                break
+            fb = forward_batch(Q, self.config, check_limits=False, displacement=D)
+        R, pos = fb.rotation, fb.position
         twist = tilt_from_matrix(R)[2]
         return np.concatenate([pos, _tilt_vector(R), twist[:, None]], axis=-1)
 
