@@ -806,6 +806,48 @@ def test_one_outlier_fails_the_gate(capsys, tmp_path):
     assert status == 0 and g['passed'] and g['value'] == pytest.approx(2.89, abs=0.005)
 
 
+def test_too_few_rows_beyond_the_fitted_parameters_name_no_outlier(capsys, tmp_path):
+    """The worked example's first 5 tracker rows (30 residuals for 16 fitted parameters: mean leverage 0.53), the 5th
+    30 um off in z: the gate had named the 2nd an outlier, 'a mismeasured row (remove it)', a row measured right (its
+    residual mirrors the 5th's; 3 of the 5 rows moved so were misnamed). Now no row is named and the gate says why; the
+    chi-square still fails the fit. With a 6th row (36 residuals) the outliers are judged again, and the row off is
+    the one named (as in each of the 21 rows moved so of 6, 7 and 8)."""
+    from gpr_kinematics.calibration import cell
+    from gpr_kinematics.calibration.measurements import write_measurements
+
+    lines = write_measurements(tmp_path / 'tracker.csv', cell.tracker_measurements()).read_text().splitlines()
+    head = next(i for i, ln in enumerate(lines) if ln.startswith('q1')) + 1
+    v = lines[head + 4].split(',')
+    v[5] = repr(float(v[5]) + 30e-6)
+    lines[head + 4] = ','.join(v)
+    options = ('--frame', 'tracker', '--target', '0', '0', '0', '0.3', '0.1', '-1', '--fit-target', 'position',
+               '--tolerances', str(config_path('calibration/tolerances_example.yaml')), '--output',
+               str(tmp_path / 'x.yaml'), '--no-progress')
+    bad = head + 4 + 1   # the file's line of the row moved
+    five = write(tmp_path, 'five.csv', '\n'.join(lines[:head + 5]) + '\n')
+    status, out, err = run(capsys, 'calibrate', five, *options, '--json')
+    checks = {g['name']: g for g in json.loads(out)['gate']['checks']}
+    assert status == 1 and not checks['chi_square']['passed'] and 'is an outlier' not in err, err
+    assert checks['outliers'] == {
+        'name': 'outliers', 'passed': True, 'value': None, 'limit': None, 'at_least': False, 'judged': False,
+        'detail': 'Too few rows beyond the fitted parameters to judge outliers: 5 rows, 16 fitted parameters; at '
+                  'least 6 rows needed (more residuals than twice the fitted parameters: with fewer a row\'s residual '
+                  'shows the other rows\' errors more than its own), so no row is named an outlier.'}
+    assert checks['outliers']['detail'] in err and err.count('\n') == 1
+    status, out, err = run(capsys, 'calibrate', five, *options)
+    assert status == 1 and 'gate: FAILED: ' in out and checks['outliers']['detail'] in out
+    six = write(tmp_path, 'six.csv', '\n'.join(lines[:head + 6]) + '\n')
+    status, out, err = run(capsys, 'calibrate', six, *options)
+    assert status == 1 and f'Line {bad} is an outlier: its z residual is 8.69 standard deviations' in err, err
+    clean = write(tmp_path, 'clean.csv', '\n'.join(lines[:head + 4] + lines[head + 5:head + 6]) + '\n')
+    status, out, err = run(capsys, 'calibrate', clean, *options)
+    assert status == 0, err
+    assert ', outliers not judged, cross validation ' in out
+    assert '\n  Too few rows beyond the fitted parameters to judge outliers: 5 rows, ' in out
+    from gpr_kinematics.calibration.quality import outlier_rows
+    assert (outlier_rows(16, 6), outlier_rows(17, 6), outlier_rows(18, 6), outlier_rows(11, 3)) == (6, 6, 7, 8)
+
+
 def test_without_declared_noise_the_gate_judges_against_a_trackers(capsys, tmp_path):
     """The shipped file without its sigma columns and without --sigma-*: its x and y columns swapped (residuals 7.6 um
     per coordinate against 3 um of noise) passed the gate with a reduced chi-square of 1.82 and so did a row 200 um

@@ -145,10 +145,10 @@ class ResidualShare:
                 checks += self._chi_square(check, spread(h, residual), res.absolute_sigma)
                 continue
             if check.name == 'outliers' and res.absolute_sigma:
-                judged = outlier_check(h, residual, names)
+                judged = outlier_check(h, residual, names, fitted=res.fitted.size)
                 if judged is not None:
-                    check = dataclasses.replace(judged, detail='' if judged.passed else judged.detail.replace(
-                        '(studentized)', "(studentized with the GPR's share)"))
+                    said = judged.detail.replace('(studentized)', "(studentized with the GPR's share)")
+                    check = dataclasses.replace(judged, detail='' if judged.passed and judged.judged else said)
             checks.append(check)
         return Gate(tuple(checks))
 

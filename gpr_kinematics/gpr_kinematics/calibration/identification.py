@@ -305,8 +305,9 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
                             'No row can be left out: each alone determines a fitted combination, so no other row '
                             'checks it; allowed: more rows than the fitted parameters need (or fewer parameters '
                             'free).'))
-    # what a check found is said where it failed (a passed check's sentence read as a failure in the JSON)
-    return Gate(tuple(c if not c.passed else replace(c, detail='') for c in checks))
+    # what a check found is said where it failed (a passed check's sentence read as a failure in the JSON), and why
+    # a check was not judged
+    return Gate(tuple(c if not c.passed or not c.judged else replace(c, detail='') for c in checks))
 
 
 def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = None,
@@ -410,7 +411,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     # outliers of the others in units of their own robust scale
     options = [kind for kind in known if getattr(meas, f'sigma_{kind}') is None]   # the options', not a column's
     more = (sigma_check(h, best.residual, known, options) if known else None,
-            outlier_check(h, best.residual, names, robust=[kind not in known for kind, _ in KINDS[k]]))
+            outlier_check(h, best.residual, names, robust=[kind not in known for kind, _ in KINDS[k]],
+                          fitted=fit.size))
     weak = weak_at_estimate(params, fit, se, scale)
     gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual), weak)
     warnings = far_from_prior(params, fit, theta, theta0, scale, frame) + weak
