@@ -335,6 +335,40 @@ def test_the_report_says_which_standard_errors_include_the_gprs_covariance(files
     assert status == 0 and 'gpr covariance:' not in text and "note: the arms' standard errors take" in text
 
 
+def test_the_arms_plot_draws_the_band_the_gate_judges_with(files, capsys, tmp_path, monkeypatch):
+    """``--plot`` of an arm judged with the GPR's covariance: its noise line is ``sqrt(3 sigma^2 + g^2)``, ``g^2`` the
+    row's three diagonal entries of the GPR's share ``P B Sigma_g B^T P`` (built densely here) times ``sigma^2``, as
+    the gate's residual variances ``diag C`` carry it (it was ``sqrt(3) sigma``, the noise alone: 8.66 um for every
+    row where the gate expects 8.92-11.29 um); labelled so. Without the block the line is the noise's, as before."""
+    from gpr_kinematics.calibration import plot
+    robot_file, with_block, plain_file, arm_csv, cov, cfg, meas = files
+    drawn = []
+    monkeypatch.setattr(plot, 'plot_residuals', lambda path, plots, draw=plot.plot_residuals: drawn.append(plots)
+                        or draw(path, plots))
+    argv = ['calibrate', '--robot', robot_file, arm_csv, '--output', str(tmp_path / 'r.yaml'), '--plot',
+            str(tmp_path / 'arm.png')]
+    status, out, err = run(capsys, *argv, '--config', with_block)
+    assert status == 0, err
+    (data,) = drawn[-1]
+    model = ArmModel(load_robot(geometry=cfg), meas)
+    res = identify(model, meas.points)
+    A, B = weighted_jacobians(model, model, res, cov, weights(meas.points, SIGMA, 1e-5)[0])
+    P = np.eye(A.shape[0]) - A @ np.linalg.pinv(A)
+    g2 = np.diag(P @ B @ cov.matrix @ B.T @ P).reshape(-1, 3).sum(axis=1) * SIGMA ** 2
+    np.testing.assert_allclose(data.position.noise, np.sqrt(3 * SIGMA ** 2 + g2), rtol=1e-6)
+    np.testing.assert_allclose(data.position.gpr ** 2, g2, rtol=1e-5)
+    assert data.position.noise.min() == pytest.approx(8.92e-6, abs=5e-9)
+    assert data.position.noise.max() == pytest.approx(11.29e-6, abs=5e-9)
+    assert plot._noise_label(data.position, 'um') == (
+        "noise and the GPR's share, as the gate judges: sqrt(3 sigma^2 + g^2),\nsigma 5 um per coordinate (the file's "
+        f"sigma_position),\ng {1e6 * data.position.gpr.min():.3g}-{1e6 * data.position.gpr.max():.3g} um (the GPR's "
+        'calibration covariance, propagated)')
+    status, out, err = run(capsys, *argv, '--config', plain_file)
+    (data,) = drawn[-1]
+    assert status == 0 and data.position.gpr is None
+    np.testing.assert_array_equal(data.position.noise, np.sqrt(3.0) * SIGMA * np.ones(len(data.rows)))
+
+
 def test_a_tracker_frame_with_the_gprs_covariance(files, capsys, tmp_path):
     """Measured in a tracker's frame (identified with the arm): the GPR's covariance adds to every standard error
     the frame leaves it (the frame's own absorb the GPR's common motions)."""

@@ -100,12 +100,13 @@ def weighted_jacobians(model: PoseModel, arm: ArmModel, res: CalibrationResult, 
 class ResidualShare:
     """The weighted residuals' covariance ``C = P + G G^T`` with the GPR's error (module docstring), as the gate needs
     it: the fit's degrees of freedom ``tr P = 3N - F``, the eigenvalues ``excess`` of ``G^T G`` above 0 (``C`` has
-    ``1 + excess_k`` where it differs from ``P``'s ones) and every residual's variance ``diag C`` ``(N, 3)`` (in units
-    of its sigma squared)."""
+    ``1 + excess_k`` where it differs from ``P``'s ones), every residual's variance ``diag C`` ``(N, 3)`` and the GPR's
+    share of it, ``gpr = diag G G^T`` ``(N, 3)`` (both in units of its sigma squared)."""
 
     dof: int
     excess: Array
     variance: Array
+    gpr: Array
 
     @classmethod
     def of(cls, A: Array, B: Array, cov: GeometryCovariance) -> ResidualShare:
@@ -115,10 +116,11 @@ class ResidualShare:
         lam, V = np.linalg.eigh(0.5 * (cov.matrix + cov.matrix.T))
         G = PB @ (V * np.sqrt(np.clip(lam, 0.0, None)))   # C = P + G G^T (Sigma_g = V lam V^T, PSD within rounding)
         mu = np.linalg.eigvalsh(G.T @ G)
-        variance = 1.0 - np.sum(Qa * Qa, axis=1) + np.sum(G * G, axis=1)
+        gpr = np.sum(G * G, axis=1)
+        variance = 1.0 - np.sum(Qa * Qa, axis=1) + gpr
         dof = A.shape[0] - A.shape[1]
         excess = mu[mu > 1e-12 * max(float(mu.max(initial=0.0)), 1.0)][-dof:] if dof > 0 else mu[:0]
-        return cls(dof, excess, variance.reshape(-1, 3))
+        return cls(dof, excess, variance.reshape(-1, 3), gpr.reshape(-1, 3))
 
     @property
     def mean(self) -> float:

@@ -25,7 +25,11 @@ def _noise_label(k: Kind, unit: str) -> str:
     sigma = f'{lo:.3g} {unit}' if np.isclose(lo, hi) else f'{lo:.3g}-{hi:.3g} {unit}'
     what = 'declared' if k.origin == 'declared' else k.origin if k.origin.startswith('the file') else \
         f'assumed, {k.origin}' if k.origin != 'assumed' else 'assumed (not declared)'
-    return f'noise: sqrt(3) sigma, sigma {sigma} per coordinate\n({what})'
+    if k.gpr is None:
+        return f'noise: sqrt(3) sigma, sigma {sigma} per coordinate\n({what})'
+    lo, hi = float(np.min(k.gpr)) * 1e6, float(np.max(k.gpr)) * 1e6
+    return (f"noise and the GPR's share, as the gate judges: sqrt(3 sigma^2 + g^2),\nsigma {sigma} per coordinate "
+            f"({what}),\ng {lo:.3g}-{hi:.3g} {unit} (the GPR's calibration covariance, propagated)")
 
 
 def _residual_panel(ax: Axes, data: ResidualPlot, k: Kind, what: str, unit: str) -> None:

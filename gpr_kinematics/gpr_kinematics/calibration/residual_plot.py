@@ -7,7 +7,10 @@ For row ``i`` the position residual is ``|p(theta, q_i) - p_i|`` [m] and the ori
 (before) and at the estimate (after): the RMS and the worst of each are the report's ``residuals.before`` and
 ``residuals.after``. The noise line is ``sqrt(3) sigma_i``, the RMS of the magnitude of a 3-vector of independent
 zero-mean coordinates of standard deviation ``sigma_i`` (``E |e_i|^2 = 3 sigma_i^2``; ``sigma_i`` the row's sigma
-per coordinate, which the gate's chi-square divides the residuals by): residuals at the noise scatter about it.
+per coordinate, which the gate's chi-square divides the residuals by): residuals at the noise scatter about it. An
+arm's fit judged with the GPR's calibration covariance (:class:`~.arm_gpr.ResidualShare`) has the GPR's share in its
+residuals too: the line is then ``sqrt(3 sigma_i^2 + g_i^2)``, ``g_i^2 = sigma_i^2 sum_c (G G^T)_cc`` over the row's
+three coordinates, the expected spread the gate adds.
 """
 from __future__ import annotations
 
@@ -35,8 +38,9 @@ FRAME_PREFIXES = ('base_', 'target_')
 @dataclass(frozen=True)
 class Kind:
     """One kind of residual (position [m] or orientation [rad]) of every row: ``before`` and ``after`` ``(N,)``,
-    ``noise`` ``(N,)`` the line ``sqrt(3) sigma_i``, ``sigma`` the sigmas ``(N,)`` per coordinate, ``origin`` what
-    they are (:func:`~.identification.noise_origin`), ``log``: draw on a log scale (:data:`LOG_RATIO`)."""
+    ``noise`` ``(N,)`` the line ``sqrt(3) sigma_i`` (with ``gpr``: ``sqrt(3 sigma_i^2 + gpr_i^2)``), ``sigma`` the
+    sigmas ``(N,)`` per coordinate, ``origin`` what they are (:func:`~.identification.noise_origin`), ``log``: draw on
+    a log scale (:data:`LOG_RATIO`); ``gpr`` ``(N,)`` the GPR's share (module docstring), ``None`` without."""
 
     before: Array
     after: Array
@@ -44,6 +48,7 @@ class Kind:
     sigma: Array
     origin: str
     log: bool
+    gpr: Array | None = None
 
     @property
     def rms_before(self) -> float:
@@ -77,24 +82,28 @@ class ResidualPlot:
     merged: bool = False
 
 
-def _kind(errors0: Array, errors1: Array, sigma: Array, origin: str) -> Kind:
+def _kind(errors0: Array, errors1: Array, sigma: Array, origin: str, gpr: Array | None = None) -> Kind:
     before, after = np.linalg.norm(errors0, axis=1), np.linalg.norm(errors1, axis=1)
     rms = sorted(float(np.sqrt(np.mean(x ** 2))) for x in (before, after))
-    return Kind(before, after, math.sqrt(3.0) * sigma, sigma, origin,
-                rms[1] >= LOG_RATIO * rms[0])
+    noise = math.sqrt(3.0) * sigma if gpr is None else np.sqrt(3.0 * sigma ** 2 + gpr ** 2)
+    return Kind(before, after, noise, sigma, origin, rms[1] >= LOG_RATIO * rms[0], gpr)
 
 
 def residual_plot(model: PoseModel, meas: Measurements, res: CalibrationResult, sigma_position: float,
-                  sigma_angle: float, declared: tuple[bool, bool] = (False, False), label: str = '') -> ResidualPlot:
+                  sigma_angle: float, declared: tuple[bool, bool] = (False, False), label: str = '',
+                  gpr_share: Array | None = None) -> ResidualPlot:
     """The data of the plot of ``res``, the identification of ``model`` from ``meas`` with the sigmas and
     ``declared`` it was made with (:func:`~.identification.identify`'s arguments): the model evaluated at the
-    nominal parameters and at the estimate (module docstring); ``label`` names what is calibrated (an arm)."""
+    nominal parameters and at the estimate (module docstring); ``label`` names what is calibrated (an arm);
+    ``gpr_share`` ``(N, 3)``: the GPR's share of each position residual's variance in units of its sigma squared
+    (:attr:`~.arm_gpr.ResidualShare.gpr`), drawn in the noise line as the gate judges it."""
     e0 = measured_errors(model, meas, model.parameters.nominal)
     e1 = measured_errors(model, meas, res.estimate)
     w, _ = weights(meas, sigma_position, sigma_angle, declared)
     sigma = 1.0 / w
+    gpr = None if gpr_share is None else sigma[:, 0] * np.sqrt(np.sum(gpr_share, axis=1))
     position = _kind(e0[:, :3], e1[:, :3], sigma[:, 0],
-                     noise_origin('position', meas.sigma_position, declared[0], float(sigma[0, 0])))
+                     noise_origin('position', meas.sigma_position, declared[0], float(sigma[0, 0])), gpr)
     angle = None if e0.shape[1] == 3 else _kind(
         e0[:, 3:], e1[:, 3:], sigma[:, 3], noise_origin('angle', meas.sigma_angle, declared[1], float(sigma[0, 3])))
     shown = [int(j) for j in res.fitted if not res.parameters[int(j)].name.startswith(FRAME_PREFIXES)]

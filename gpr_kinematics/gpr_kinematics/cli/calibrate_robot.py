@@ -172,6 +172,7 @@ def calibrate_robot(args: argparse.Namespace) -> int:
     results, texts, values = [], [], {}
     without: dict[str, dict[str, float]] = {}
     regs: dict[str, Registration | None] = {}
+    shares: dict[str, np.ndarray] = {}   # the GPR's share of each arm's residuals, for its plot
     shown = progress_line(args.no_progress)
     for arm, model in models.items():
         inner = inners[arm]
@@ -190,8 +191,9 @@ def calibrate_robot(args: argparse.Namespace) -> int:
         if gpr_cov is not None:   # the GPR's calibration uncertainty in the arm's (calibration.arm_gpr)
             w = weights(inner.meas.points, sp, sa, declared(args))[0]
             A, B = weighted_jacobians(model, inner, res, gpr_cov, w)   # and its gate with the GPR's error
-            gate = ResidualShare.of(A, B, gpr_cov).gate(res, weighted_residuals(model, inner, res, w),
-                                                        inner.meas.points.row_names)
+            share = ResidualShare.of(A, B, gpr_cov)
+            gate = share.gate(res, weighted_residuals(model, inner, res, w), inner.meas.points.row_names)
+            shares[arm] = share.gpr
             res = with_gpr_covariance(res, gain(A, B), gpr_cov, gate)
         reg: Registration | None = None
         if isinstance(model, FramedModel):
@@ -215,7 +217,7 @@ def calibrate_robot(args: argparse.Namespace) -> int:
         from ..calibration.plot import plot_residuals
         from ..calibration.residual_plot import residual_plot
         plotted['plot_file'] = str(plot_residuals(args.plot, [
-            residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args), f'arm {a}')
+            residual_plot(models[a], inners[a].meas.points, r, sp, sa, declared(args), f'arm {a}', shares.get(a))
             for a, r in results]))
     path = _write(args, robot, results, values, regs) if write else None
     note = covariance_note(gpr_cov) if gpr_cov is not None else f'{GEOMETRY_NOTE}; {left}' if left else GEOMETRY_NOTE
