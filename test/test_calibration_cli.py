@@ -848,6 +848,41 @@ def test_too_few_rows_beyond_the_fitted_parameters_name_no_outlier(capsys, tmp_p
     assert (outlier_rows(16, 6), outlier_rows(17, 6), outlier_rows(18, 6), outlier_rows(11, 3)) == (6, 6, 7, 8)
 
 
+def test_a_column_unit_or_two_columns_swapped_are_hinted_in_the_refusal(capsys, tmp_path):
+    """Positions in metres under ``x [mm]`` headers, or two of x, y, z swapped in the worked example's tracker file,
+    were refused as 'not a measurement of this machine' with no word of the header. The refusal stays (exit 2, one
+    line), and where the positions read another way fit the nominal model far better (10 times in RMS, every row
+    within the plausible 10 mm) it says which, with both RMS errors; where none does (measurements in the tracker's
+    frame given as gpr_base's) it says what it said."""
+    from gpr_kinematics.calibration import cell
+    from gpr_kinematics.calibration.measurements import write_measurements
+
+    def header(text, columns):
+        return re.sub(r'^q1,q2,q3,x,y,z,', f'q1,q2,q3,{columns},', text, flags=re.M)
+
+    shipped = Path(SHIPPED).read_text(encoding='utf-8')
+    status, out, err = run(capsys, 'calibrate', write(tmp_path, 'mm.csv', header(shipped, 'x [mm],y [mm],z [mm]')),
+                           '--output', str(tmp_path / 'x.yaml'))
+    assert status == 2 and err.count('\n') == 1 and 'not a measurement of this machine in gpr_base' in err
+    assert err.endswith('correct the nominal model first; the positions fit this machine if their values were in '
+                        'metres (x, y, z 1000 times what was read): RMS 35.5 um from the nominal model\'s against '
+                        '333 mm as read; check their columns\' unit (the header\'s, or the "# units:" line))\n'), err
+    tracker = write_measurements(tmp_path / 'tracker.csv', cell.tracker_measurements()).read_text()
+    options = ('--frame', 'tracker', '--target', '0', '0', '0', '0.3', '0.1', '-1', '--fit-target', 'position',
+               '--output', str(tmp_path / 'x.yaml'), '--no-progress')
+    status, out, err = run(capsys, 'calibrate', write(tmp_path, 'xy.csv', header(tracker, 'y,x,z')), *options)
+    assert status == 2 and err.count('\n') == 1 and 'the best fit leaves residuals 373 times' in err
+    assert err.endswith('or sigma columns far too small; the positions fit this machine with columns x and y swapped: '
+                        'RMS 75.6 um from the nominal model\'s against 3.19 mm as read; check the header\'s column '
+                        'names\n'), err
+    status, out, err = run(capsys, 'calibrate', write(tmp_path, 'yz.csv', header(tracker, 'x,z,y')), *options)
+    assert status == 2 and err.count('\n') == 1 and 'not a measurement of this machine in tracker' in err
+    assert '; the positions fit this machine with columns y and z swapped: RMS 75.6 um from the nominal model\'s ' \
+        'against 302 mm as read; check the header\'s column names)' in err, err
+    status, out, err = run(capsys, 'calibrate', str(tmp_path / 'tracker.csv'), '--output', str(tmp_path / 'x.yaml'))
+    assert status == 2 and 'not a measurement of this machine in gpr_base' in err and 'positions fit' not in err
+
+
 def test_without_declared_noise_the_gate_judges_against_a_trackers(capsys, tmp_path):
     """The shipped file without its sigma columns and without --sigma-*: its x and y columns swapped (residuals 7.6 um
     per coordinate against 3 um of noise) passed the gate with a reduced chi-square of 1.82 and so did a row 200 um

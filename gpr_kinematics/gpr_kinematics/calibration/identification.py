@@ -41,7 +41,7 @@ from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise,
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements
 from .model import ParameterSet, PoseModel, pose_model, prior_scale
-from .plausibility import measured_errors, plausible_start
+from .plausibility import measured_errors, other_reading, plausible_start
 from .quality import (
     CHI2_QUANTILE,
     CV_GATE,
@@ -124,10 +124,11 @@ def known_kinds(meas: Measurements, declared: tuple[bool, bool] = (False, False)
 
 
 def _refuse_far(meas: Measurements, params: ParameterSet, mask: NDArray[np.bool_], residual: Array, dof: int,
-                kinds: tuple[str, ...], absolute: bool) -> None:
+                kinds: tuple[str, ...], absolute: bool, reading: Callable[[], str] = lambda: '') -> None:
     """Refuse a fit whose residuals of a kind with declared sigmas (all: ``absolute``) exceed them beyond
     :data:`MAX_CHI2` in reduced chi-square: ``sum r^2 / dof`` over all residuals, or over a declared kind's its
-    share of the ``dof`` (``dof`` times its share of the residuals) where the other kind's noise is assumed."""
+    share of the ``dof`` (``dof`` times its share of the residuals) where the other kind's noise is assumed;
+    ``reading()``: :func:`~.plausibility.other_reading`'s hint."""
     k = residual.shape[1]
     if absolute:
         found = [('', float(np.sum(residual ** 2)) / dof)]
@@ -141,9 +142,11 @@ def _refuse_far(meas: Measurements, params: ParameterSet, mask: NDArray[np.bool_
         shown = ', '.join(fixed_names[:4]) + (', ...' if len(fixed_names) > 4 else '')
         fixed = (f', or parameters held that are off nominal ({len(fixed_names)} held by --free or a tolerance of 0: '
                  f'{shown})?' if fixed_names else '')
+        hint = reading()
         raise InputError(f'{meas.source}: the best fit leaves {kind}residuals {math.sqrt(chi2_red):.3g} times the '
                          f'standard deviations of the file (reduced chi-square {chi2_red:.3g}; allowed: at most '
-                         f'{MAX_CHI2:g}): {NOT_THIS_MACHINE}, or sigma columns far too small{fixed}')
+                         f'{MAX_CHI2:g}): {NOT_THIS_MACHINE}, or sigma columns far too small{fixed}'
+                         + (f'; {hint}' if hint else ''))
 
 
 def least_rows(n_free: int, per_row: int) -> int:
@@ -376,7 +379,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     theta = best.theta
     chi2_red = best.cost / dof
     known = known_kinds(meas, declared)
-    _refuse_far(meas, params, mask, best.residual, dof, known, absolute)
+    _refuse_far(meas, params, mask, best.residual, dof, known, absolute, lambda: other_reading(model, meas, theta0))
     cov = np.zeros((0, 0))
     se = np.full(len(params), np.nan)
     other = np.flatnonzero(~np.isin(np.arange(len(params)), fit)).astype(np.int64)

@@ -1,9 +1,11 @@
 """Whether measurements are of this machine at all: a measured pose implausibly far from the nominal model's (wrong
 units, another frame, a wrong row) is refused before any fit, with the likely cause named (millimetres read as
-metres, or metres under a ``# units: mm`` line, tested by rescaling the file and fitting its frames again).
+metres, or metres under a ``# units: mm`` line, tested by rescaling the file and fitting its frames again; else,
+where the positions fit far better read another way, a column's unit or two columns swapped: :func:`other_reading`).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -20,6 +22,9 @@ Array = NDArray[np.float64]
 #: the measured frame (wrong units, wrong frame, wrong row): [m] and [rad].
 PLAUSIBLE_POSITION = 0.01
 PLAUSIBLE_ANGLE = 0.05
+#: Another reading of the positions is hinted at when it puts every row within the plausible errors and its RMS
+#: position error (the nominal model, its frames fitted again) is at most this share of the file's as read.
+BETTER_READING = 0.1
 
 
 class ImplausiblePoseError(InputError):
@@ -50,9 +55,11 @@ def implausible(errors: Array) -> tuple[NDArray[np.int64], Array, Array]:
 
 
 def _check_plausible(meas: Measurements, errors: Array, frame: str,
-                     rescaled: Callable[[float], bool] = lambda factor: False) -> None:
+                     rescaled: Callable[[float], bool] = lambda factor: False,
+                     reading: Callable[[], str] = lambda: '') -> None:
     """ImplausiblePoseError for the first row beyond the plausible errors; ``rescaled(factor)``: the positions
-    times ``factor`` fit the model (its frames fitted again), for the hint on units."""
+    times ``factor`` fit the model (its frames fitted again), for the hint on units; ``reading()``: else
+    :func:`other_reading`'s hint ('' for none)."""
     bad, dp, da = implausible(errors)
     if bad.size:
         i = int(bad[0])
@@ -63,14 +70,16 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str,
         metres = declared_mm and _units_explain(meas, errors, i, 1e3, rescaled)
         elsewhere = ('; a tracker\'s frame is identified with the machine with --frame NAME (docs/calibration.md)'
                      if frame == 'gpr_base' else '')
+        hint = '' if mm or metres else reading()
         why = ('millimetres? declare "# units: mm"' if mm else
                'metres under the "# units: mm" line? give them in mm' if metres else
                f'another frame than {frame}{elsewhere}, or a machine that far from its nominal model (an arm\'s zero '
-               'offset of a degree moves its wafer some centimetres): correct the nominal model first')
+               'offset of a degree moves its wafer some centimetres): correct the nominal model first'
+               + (f'; {hint}' if hint else ''))
         unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
         exc = ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
                                    f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
-        exc.units, exc.angle = mm or metres, meas.units[1]
+        exc.units, exc.angle = mm or metres or bool(hint), meas.units[1]
         raise exc
 
 
@@ -108,5 +117,41 @@ def plausible_start(model: PoseModel, meas: Measurements, theta0: Array, frame: 
             return False
 
     e, start = errors(meas)
-    _check_plausible(meas, e, frame, rescaled)
+    _check_plausible(meas, e, frame, rescaled, lambda: other_reading(model, meas, theta0))
     return start
+
+
+def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
+    """A hint ('' for none) where the positions fit the model at ``theta0`` (its frames fitted again) far better
+    read another way (:data:`BETTER_READING`): 1000 times or a thousandth of their values (a column's unit: ``x [mm]``
+    over metres), or two of the columns x, y, z swapped; the best such reading, with both RMS errors."""
+    refine = getattr(model, 'registered', None)
+
+    def rms(position: Array) -> tuple[float, bool]:
+        try:   # a reading beyond the coordinates' bound is refused (InputError) as a file of it would be
+            m = replace(meas, position=position)
+            e = measured_errors(model, m, refine(m) if callable(refine) else theta0)
+        except GprError:
+            return math.inf, False
+        return float(np.sqrt(np.mean(np.sum(e[:, :3] ** 2, axis=1)))), not implausible(e)[0].size
+
+    p = meas.position
+    read = rms(p)[0]
+    readings = [(f'if their values were in {unit} (x, y, z {factor:g} times what was read)', p * factor)
+                for unit, factor in (('metres', 1e3), ('millimetres', 1e-3))]
+    readings += [(f'with columns {"xyz"[a]} and {"xyz"[b]} swapped', p[:, [b if c == a else a if c == b else c
+                                                                            for c in range(3)]])
+                 for a, b in ((0, 1), (0, 2), (1, 2))]
+    found = [(r, words) for words, q in readings for r, ok in [rms(q)] if ok and r <= BETTER_READING * read]
+    if not found:
+        return ''
+    r, words = min(found)
+    check = 'their columns\' unit (the header\'s, or the "# units:" line)' if 'times' in words else \
+        'the header\'s column names'
+    return f'the positions fit this machine {words}: RMS {_length(r)} from the nominal model\'s against ' \
+        f'{_length(read)} as read; check {check}'
+
+
+def _length(v: float) -> str:
+    """``75.6 um``, ``214 mm`` [m in]."""
+    return f'{1e6 * v:.3g} um' if v < 1e-3 else f'{1e3 * v:.3g} mm'
