@@ -105,10 +105,10 @@ def _print_safety(r: Any) -> None:
             below = f'{c.time:>15.3f}' if c.measured_below else f'{"-":>15}'
             print(f'    {c.step:>5}  {c.station:<16} {below}  {" / ".join(c.bodies):<40} '
                   f'{c.distance * 1e3:>17.3f} {_least_at(r, c):>10.3f}')
-        print('    (first below: the first instant measured closer than the margin, in that step at that station; -: '
-              'none, the bounds\n     between samples could not show the pair the margin apart; min distance: the '
-              "pair's least certified distance over\n     the whole program; min at: the instant of its smallest "
-              'measured distance)')
+        print('    (first below: when the pair first comes closer than the margin, to 1 us, in that step at that '
+              'station; -: none,\n     the bounds between samples could not show the pair the margin apart; min '
+              "distance: the pair's least certified\n     distance over the whole program; min at: the instant of its "
+              'smallest measured distance)')
         for c in r.collisions:
             if not c.measured_below:
                 print(f'    {c.not_shown(r.margin)}')

@@ -47,8 +47,8 @@ CORNER_SIDE = 1e-9
 
 @dataclass(frozen=True)
 class Collision:
-    """A pair below the margin: the bodies, the first instant measured below it [s], the pair's smallest certified
-    distance [m], the step, station and waypoint label of that instant; ``measured_below`` False: nothing was
+    """A pair below the margin: the bodies, its crossing of the margin (:mod:`.crossing`: to 1 us) [s], the pair's
+    least certified distance [m], the step, station and waypoint label of that instant; ``measured_below`` False: none
     measured below the margin, only the bounds between samples could not show the pair the margin apart (``time``
     then the instant of ``measured``, the smallest distance measured [m], less the library's slack)."""
 

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from ..errors import InputError, brief
 from ..inputs.validation import plain_number
 from .bodies import Body, box_lower_bound
+from .crossing import first_below
 from .distances import LIBRARY_SLACK, Exact, Store, Table, key
 from .margin import MARGIN, MARGIN_RANGE
 from .motion import BodyMotion, Levers, grid_within, levers, moving_intervals
@@ -67,9 +68,10 @@ MAX_INSTANTS = 2_000_000
 @dataclass(frozen=True)
 class PairClearance:
     """The certified smallest distance of a pair over the motion [m] (negative: penetration), the instant of the
-    smallest distance measured [s], ``first_below`` the first instant measured below the margin (the library's
-    distance before the slack; NaN: none, a pair below the margin by its bounds only) and ``measured`` the smallest
-    distance the library measured less :data:`~.distances.LIBRARY_SLACK` (at ``time``)."""
+    smallest distance measured [s], ``first_below`` the first instant measured below the margin [s] (the library's
+    distance before the slack; the crossing to within :data:`~.crossing.RESOLUTION`, deciding the search's first;
+    NaN: none, a pair below the margin by its bounds only) and ``measured`` the smallest distance the library
+    measured less :data:`~.distances.LIBRARY_SLACK` (at ``time``)."""
 
     bodies: tuple[str, str]
     distance: float
@@ -136,7 +138,8 @@ def clearance(motion: BodyMotion, bodies: Sequence[Body], pairs: Sequence[Pair],
         pairs: ``(i, j, skip)``: body indices and the time windows to leave out (intended contact).
         margin: below it a pair counts as a collision [m]; tolerance: accuracy of each pair's minimum [m].
         rate: base sampling [Hz] before refinement.
-        decide: False (the default): every pair's minimum to the tolerance. True: only whether each pair keeps the
+        decide: False (the default): every pair's minimum to the tolerance, and where it is measured below the
+            margin its crossing (:mod:`~gpr_kinematics.safety.crossing`). True: only whether each pair keeps the
             margin: a pair is settled once every interval's bound reaches the margin (its ``distance`` then a lower
             bound of at least the margin), or as soon as the library measures it closer (``measured``, at ``time``;
             its ``distance`` the bounds reached, a lower bound still).
@@ -431,10 +434,8 @@ class _Search:
         order = np.lexsort((vals, kp))
         for n in order[np.flatnonzero(np.r_[True, kp[order][1:] != kp[order][:-1]])] if keys.size else []:
             best[int(kp[n])] = (float(vals[n]), int(ki[n]))
-        below: dict[int, float] = {}
         low = vals + LIBRARY_SLACK < self.margin   # the slack is the certificate's, not a measurement below
-        for pp, ii in zip(kp[low].tolist(), ki[low].tolist(), strict=True):
-            below[pp] = min(below.get(pp, np.inf), float(t[ii]))
+        below = first_below(self, kp[low], ki[low], not self.decide)
         for p in np.flatnonzero(present):
             A, B = self.bodies[int(self.pa[p])], self.bodies[int(self.pb[p])]
             d, i = best[int(p)]
