@@ -18,7 +18,8 @@ from gpr_kinematics.robot.timing import evaluate
 from gpr_kinematics.safety import motion as motion_module
 from gpr_kinematics.safety.bodies import box_lower_bound, default_pairs, robot_body_set
 from gpr_kinematics.safety.check import wafer_plan
-from gpr_kinematics.safety.clearance import TOLERANCE, _Items, _Search
+from gpr_kinematics.safety.clearance import TOLERANCE, _Search
+from gpr_kinematics.safety.crossing import Intervals
 from gpr_kinematics.safety.margin import MARGIN
 from gpr_kinematics.safety.motion import (
     LIPSCHITZ,
@@ -354,7 +355,7 @@ def test_a_pairs_motion_bound_holds_what_both_bodies_travel():
         ('gpr_base', b.name) for b in bodies if b.arm}   # links, blades and wafers (the wafers' alone before)
     p, k = np.repeat(pairs, K), np.tile(np.arange(K), pairs.size)
     i0, i1 = search.store.add(t0)[k], search.store.add(t1)[k]
-    items = _Items(p, i0, i1, np.zeros(p.size, dtype=np.int64))
+    items = Intervals(p, i0, i1, np.zeros(p.size, dtype=np.int64))
     search._motion(items)
     together = travel[k, search.pa[p]] + travel[k, search.pb[p]]
     assert np.all(together <= items.mu + 1e-12), float(np.max(together - items.mu))

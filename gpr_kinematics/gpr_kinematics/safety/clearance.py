@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from ..errors import InputError, brief
 from ..inputs.validation import plain_number
 from .bodies import Body, box_lower_bound
-from .crossing import first_below
+from .crossing import Intervals, first_below
 from .distances import LIBRARY_SLACK, Exact, Store, Table, key
 from .margin import MARGIN, MARGIN_RANGE
 from .motion import BodyMotion, Levers, grid_within, levers, moving_intervals
@@ -170,26 +170,6 @@ def _heights(motion: BodyMotion, bodies: Sequence[Body], platform: NDArray[np.bo
     return lo, hi
 
 
-class _Items:
-    """Intervals ``[i0, i1]`` (instant indices) of pairs ``p``, from base interval ``base``, with the pair's motion
-    bounds on them: ``mu`` (total), ``eps`` (beyond a translation) [m] and ``delta`` (the translation, NaN: none)."""
-
-    def __init__(self, p: Ints, i0: Ints, i1: Ints, base: Ints) -> None:
-        self.p, self.i0, self.i1, self.base = p, i0, i1, base
-        self.mu, self.eps, self.delta = np.zeros(p.shape), np.zeros(p.shape), np.zeros(p.shape + (3,))
-
-    def take(self, sel: NDArray[np.bool_]) -> _Items:
-        out = _Items(self.p[sel], self.i0[sel], self.i1[sel], self.base[sel])
-        out.mu, out.eps, out.delta = self.mu[sel], self.eps[sel], self.delta[sel]
-        return out
-
-    def join(self, other: _Items) -> _Items:
-        out = _Items(*(np.concatenate([getattr(self, k), getattr(other, k)]) for k in ('p', 'i0', 'i1', 'base')))
-        out.mu, out.eps = np.concatenate([self.mu, other.mu]), np.concatenate([self.eps, other.eps])
-        out.delta = np.concatenate([self.delta, other.delta])
-        return out
-
-
 class _Search:
     """The branch and bound of :func:`clearance` over all pairs at once."""
 
@@ -276,7 +256,7 @@ class _Search:
             np.minimum.at(series, sk, certified[sp])
         return self._report(certified, present, self.store.t(self.base), series)
 
-    def _items(self, pairs: Ints) -> tuple[_Items, Ints, Ints]:
+    def _items(self, pairs: Ints) -> tuple[Intervals, Ints, Ints]:
         """The base intervals of ``pairs`` on which both bodies exist and no contact is intended; a pair of bodies
         that never move keeps one (one instant stands for all); also those pairs' other intervals."""
         b0, b1 = self.base[:-1], self.base[1:]
@@ -294,7 +274,7 @@ class _Search:
         keep = ~static | np.r_[True, item_p[1:] != item_p[:-1]]
         sp, sk = item_p[static], item_k[static]
         item_p, item_k = item_p[keep], item_k[keep]
-        return _Items(item_p, b0[item_k], np.where(self.static[item_p], b0[item_k], b1[item_k]), item_k), sp, sk
+        return Intervals(item_p, b0[item_k], np.where(self.static[item_p], b0[item_k], b1[item_k]), item_k), sp, sk
 
     def _share(self, chunk: int, chunks: int) -> Callable[[float], None]:
         """The ``progress`` of the run for a chunk's own share ``f`` of its work: ``(chunk + f) / chunks``."""
@@ -303,7 +283,7 @@ class _Search:
             return lambda f: None
         return lambda f: report(min(1.0, (chunk + f) / chunks))
 
-    def _settled(self, items: _Items, sel: NDArray[np.bool_]) -> float:
+    def _settled(self, items: Intervals, sel: NDArray[np.bool_]) -> float:
         """The work of the items ``sel``: each one's share of its base interval (1 for a base interval and for a pair
         that never moves)."""
         i0, i1, k = items.i0[sel], items.i1[sel], items.base[sel]
@@ -311,7 +291,7 @@ class _Search:
         part = (self.store.t(i1) - self.store.t(i0)) / np.where(whole > 0.0, whole, 1.0)
         return float(np.where((i1 == i0) | (whole <= 0.0), 1.0, part).sum())
 
-    def _refine(self, items: _Items, upper: Array, floor: Array, series: Array,
+    def _refine(self, items: Intervals, upper: Array, floor: Array, series: Array,
                 progress: Callable[[float], None]) -> None:
         """The branch and bound of the module docstring on ``items``, lowering ``upper`` (the smallest distance
         measured per pair), ``floor`` (the smallest bound settled per pair) and ``series`` (per base interval);
@@ -375,17 +355,17 @@ class _Search:
             np.minimum.at(series, items.base, bound)
         progress(1.0)
 
-    def _split(self, items: _Items, split: NDArray[np.bool_]) -> _Items:
+    def _split(self, items: Intervals, split: NDArray[np.bool_]) -> Intervals:
         """Split the intervals ``split`` at their midpoints (one new instant per distinct interval)."""
         s = items.take(split)
         uniq, first, inv = np.unique(key(s.i0, s.i1), return_index=True, return_inverse=True)
         mid = self.store.add(0.5 * (self.store.t(s.i0[first]) + self.store.t(s.i1[first])))[inv.ravel()]
-        left, right = _Items(s.p, s.i0, mid, s.base), _Items(s.p, mid, s.i1, s.base)
+        left, right = Intervals(s.p, s.i0, mid, s.base), Intervals(s.p, mid, s.i1, s.base)
         self._motion(left)
         self._motion(right)
         return items.take(~split).join(left).join(right)
 
-    def _motion(self, items: _Items) -> None:
+    def _motion(self, items: Intervals) -> None:
         """The pair's motion bounds on each interval (the motion's ``bounds``): ``mu``, ``eps``, ``delta``."""
         _, first, inv = np.unique(key(items.i0, items.i1), return_index=True, return_inverse=True)
         inv = inv.ravel()
@@ -402,7 +382,7 @@ class _Search:
         items.mu = arm[inv, a] + arm[inv, b] + items.eps
         items.delta = shift[inv, a] - shift[inv, b]
 
-    def _bound(self, items: _Items, d0: Array, d1: Array, exact: NDArray[np.bool_]) -> Array:
+    def _bound(self, items: Intervals, d0: Array, d1: Array, exact: NDArray[np.bool_]) -> Array:
         """The certificate of every interval (module docstring)."""
         bound = np.maximum(np.minimum(np.minimum(d0, d1), 0.5 * (d0 + d1 - items.mu)), self.gap[items.p])
         cvx = exact & np.all(np.isfinite(items.delta), axis=1) & (d0 > 0.0) & (d1 > 0.0)

@@ -14,19 +14,57 @@ search's, the collision library's (python-fcl) refined to a certified lower boun
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .distances import LIBRARY_SLACK
-
-if TYPE_CHECKING:
-    from .clearance import _Items, _Search
+from .distances import LIBRARY_SLACK, Exact, Store
 
 Array = NDArray[np.float64]
 Ints = NDArray[np.int64]
 Bools = NDArray[np.bool_]
+
+
+class Intervals:
+    """Intervals ``[i0, i1]`` (instant indices) of pairs ``p``, from base interval ``base``, with the pair's motion
+    bounds on them: ``mu`` (total), ``eps`` (beyond a translation) [m] and ``delta`` (the translation, NaN: none)."""
+
+    def __init__(self, p: Ints, i0: Ints, i1: Ints, base: Ints) -> None:
+        self.p, self.i0, self.i1, self.base = p, i0, i1, base
+        self.mu, self.eps, self.delta = np.zeros(p.shape), np.zeros(p.shape), np.zeros(p.shape + (3,))
+
+    def take(self, sel: NDArray[np.bool_]) -> Intervals:
+        out = Intervals(self.p[sel], self.i0[sel], self.i1[sel], self.base[sel])
+        out.mu, out.eps, out.delta = self.mu[sel], self.eps[sel], self.delta[sel]
+        return out
+
+    def join(self, other: Intervals) -> Intervals:
+        out = Intervals(*(np.concatenate([getattr(self, k), getattr(other, k)]) for k in ('p', 'i0', 'i1', 'base')))
+        out.mu, out.eps = np.concatenate([self.mu, other.mu]), np.concatenate([self.eps, other.eps])
+        out.delta = np.concatenate([self.delta, other.delta])
+        return out
+
+
+class Search(Protocol):
+    """What the refinement takes of the clearance search (:mod:`~gpr_kinematics.safety.clearance`'s ``_Search``):
+    its instants, library distances, pairs, margin, lower bounds and its intervals' split, motion bounds and bound."""
+
+    store: Store
+    exact: Exact
+    pa: Ints
+    pb: Ints
+    margin: float
+
+    def lower(self, p: Ints, i: Ints) -> tuple[Array, Ints]: ...
+
+    def _items(self, pairs: Ints) -> tuple[Intervals, Ints, Ints]: ...
+
+    def _split(self, items: Intervals, split: Bools) -> Intervals: ...
+
+    def _motion(self, items: Intervals) -> None: ...
+
+    def _bound(self, items: Intervals, d0: Array, d1: Array, exact: Bools) -> Array: ...
 
 #: The first instant below the margin is within this of the crossing [s].
 RESOLUTION = 1e-6
@@ -37,7 +75,7 @@ MOST_ITEMS = 50_000
 MOST_INSTANTS = 100_000
 
 
-def first_below(search: _Search, pairs: Ints, instants: Ints, refine: bool) -> dict[int, float]:
+def first_below(search: Search, pairs: Ints, instants: Ints, refine: bool) -> dict[int, float]:
     """Per pair of ``pairs``, the first of ``instants`` (the search's, measured below the margin) [s]; where ``refine``,
     moved back to the crossing (module docstring)."""
     t = search.store.t(instants)
@@ -49,7 +87,7 @@ def first_below(search: _Search, pairs: Ints, instants: Ints, refine: bool) -> d
     return {p: float(search.store.data['t'][i]) for p, i in below.items()}
 
 
-def _refine(search: _Search, below: dict[int, int]) -> None:
+def _refine(search: Search, below: dict[int, int]) -> None:
     """Move each pair's instant in ``below`` (pair -> instant index) back to its crossing, in place."""
     items, start = _before(search, below), search.store.n
     for _ in range(ROUNDS):
@@ -75,7 +113,7 @@ def _refine(search: _Search, below: dict[int, int]) -> None:
         items = search._split(items.take(keep), np.ones(int(keep.sum()), dtype=bool))
 
 
-def _bounds(search: _Search, items: _Items) -> tuple[Array, tuple[tuple[Array, Bools], tuple[Array, Bools]]]:
+def _bounds(search: Search, items: Intervals) -> tuple[Array, tuple[tuple[Array, Bools], tuple[Array, Bools]]]:
     """The certificate of each interval and, at each end, the best lower bound known and whether it is the library's
     distance (then as measured: before the slack)."""
     ends = []
@@ -86,7 +124,7 @@ def _bounds(search: _Search, items: _Items) -> tuple[Array, tuple[tuple[Array, B
     return search._bound(items, d0, d1, e0 & e1), (ends[0], ends[1])
 
 
-def _before(search: _Search, below: dict[int, int]) -> _Items:
+def _before(search: Search, below: dict[int, int]) -> Intervals:
     """The pair's intervals of the search (its base intervals where both bodies exist and no contact is intended)
     before its instant in ``below``, the one holding it cut there, with their motion bounds."""
     items = search._items(np.array(sorted(below), dtype=np.int64))[0]
