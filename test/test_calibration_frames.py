@@ -206,7 +206,10 @@ def test_registration_refusals(capsys, tmp_path, setting):
     path = write_measurements(tmp_path / 't.csv', synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5))
     for argv, pattern in ((['--target', '1', '2'], r'--target takes 3 or 6 finite numbers'),
                           (['--frame', 'a b'], r"--frame 'a b'; allowed: a frame name"),
-                          (['--base', '1', '2'], r'argument --base: expected 6 arguments'),
+                          (['--base', '1', '2'], r'--base takes 6 numbers \(x y z roll pitch yaw\), got 2: '
+                                                 r"'1 2'; allowed: 6 numbers or, with --robot, one FILE"),
+                          (['--frame', 'tracker', '--base', '0', '0', '0', '0', '0', '1,5'],
+                           r"--base: invalid float value: '1,5'"),
                           # a NaN was 'takes 6 finite numbers (x y z [roll pitch yaw]), got 6'
                           (['--frame', 'tracker', '--base', '0', '0', '0', '0', '0', 'nan'],
                            r'--base yaw = nan is not a finite number; allowed: finite numbers$'),

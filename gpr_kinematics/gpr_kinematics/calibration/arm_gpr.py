@@ -28,10 +28,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.geometry_covariance import GeometryCovariance
+from ..errors import InputError
 from .arm import ArmModel
 from .chi2_mixture import quantile
 from .core_model import CoreModel
-from .model import ParameterSet, PoseModel, pose_jacobian
+from .model import ParameterSet, PoseModel, evaluate, pose_jacobian
 from .plausibility import measured_errors
 from .quality import CHI2_QUANTILE, Gate, GateCheck, outlier_check, spread
 from .results import CalibrationResult
@@ -80,17 +81,29 @@ def gain(A: Array, B: Array) -> Array:
 def weighted_jacobians(model: PoseModel, arm: ArmModel, res: CalibrationResult, cov: GeometryCovariance,
                        w: Array) -> tuple[Array, Array]:
     """``A (3N, F)`` and ``B (3N, G)``: the measured points by the fitted arm parameters and by the GPR's parameters
-    of ``cov``, each row over its ``sigma`` (:func:`gpr_gain`'s arguments)."""
+    of ``cov``, each row over its ``sigma`` (:func:`gpr_gain`'s arguments). With a registered base (``cov.base``:
+    ``model`` measures in its frame at that pose) ``B``'s last six columns are the points' motion ``m = b + R_b p``
+    with the base, exact: ``dm/db = I``, and ``-[m - b]x`` by its turn ``d`` about the frame's axes."""
     Q = arm.meas.points.q
     Ja = pose_jacobian(model, res.estimate, Q, res.fitted)[:, :3, :]             # (N, 3, F) in the frame
     inner_theta = getattr(model, 'inner_theta', None)
     a = inner_theta(res.estimate[None])[0] if callable(inner_theta) else res.estimate
-    both = ArmOnGpr(arm, cov.names)
+    geometry = cov.geometry().names
+    both = ArmOnGpr(arm, geometry)
     theta = np.concatenate([a, both.core.parameters.nominal[both.columns]])
     Jg = pose_jacobian(both, theta, Q, np.arange(a.size, theta.size))[:, :3, :]  # (N, 3, G) in gpr_base
     frames = getattr(model, 'frames', None)
     if callable(frames):                                                          # a point's motion in the frame
         Jg = np.einsum('ij,njg->nig', frames(res.estimate)[0].rotation, Jg)
+    if cov.base is not None:
+        if not callable(frames) or getattr(model, 'fit_base', True):
+            raise InputError(f"the covariance of {cov.origin} has the registration of gpr_base in {cov.base.frame}; "
+                             'allowed with measurements in that frame at that pose only (--base FILE)')
+        m = evaluate(model, res.estimate, Q)[0] - frames(res.estimate)[0].position   # (N, 3): R_b p
+        turn = np.zeros((m.shape[0], 3, 3))
+        turn[:, 0, 1], turn[:, 0, 2], turn[:, 1, 2] = m[:, 2], -m[:, 1], m[:, 0]     # -[m]x
+        turn -= np.swapaxes(turn, 1, 2)
+        Jg = np.concatenate([Jg, np.broadcast_to(np.eye(3), turn.shape), turn], axis=2)
     A = (Ja * w[:, :3, None]).reshape(-1, Ja.shape[2])
     B = (Jg * w[:, :3, None]).reshape(-1, Jg.shape[2])
     return A, B

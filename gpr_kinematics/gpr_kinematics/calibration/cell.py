@@ -54,18 +54,18 @@ def _transform(v: tuple[float, ...]) -> Transform:
     return Transform(np.array(v[:3]), rpy_matrix(*v[3:]))
 
 
-def tracker_measurements() -> Measurements:
-    """``tracker.csv`` (module docstring)."""
+def tracker_measurements(seed: int = SEED, q: np.ndarray | None = None) -> Measurements:
+    """``tracker.csv`` (module docstring); another ``seed`` draws other noise, ``q (N, 3)`` [m] replaces the plan."""
     core, inner = machine()
     plan_model = FramedModel(core, Transform.identity(), Transform(np.zeros(3), _transform(TARGET).rotation), True,
                              'position')
     table = load_tolerances(config_path(TOLERANCES))
     Q = plan_measurements(plan_model, core.config, ROWS, sigma_position=SIGMA_POSITION, sigma_angle=SIGMA_ANGLE,
                           prior=prior_of(table, plan_model.parameters),
-                          theta=centre_of(table, plan_model.parameters)).q
+                          theta=centre_of(table, plan_model.parameters)).q if q is None else q
     model = FramedModel(core, _transform(TRACKER), _transform(TARGET), True, 'pose')
     theta = np.concatenate([inner[model.independent], TRACKER[:3], np.zeros(3), TARGET[:3], np.zeros(3)])
-    return synthetic_measurements(model, theta, Q, SIGMA_POSITION, SIGMA_ANGLE, seed=SEED, source='tracker.csv')
+    return synthetic_measurements(model, theta, Q, SIGMA_POSITION, SIGMA_ANGLE, seed=seed, source='tracker.csv')
 
 
 def machine() -> tuple[CoreModel, np.ndarray]:
@@ -76,12 +76,13 @@ def machine() -> tuple[CoreModel, np.ndarray]:
     return core, model.inner_theta(values[model.independent][None])[0]
 
 
-def arm_measurements(on_blade: bool) -> ArmMeasurements:
-    """``arm1_blade.csv`` (``on_blade``) or ``arm1_wafer.csv`` (module docstring)."""
+def arm_measurements(on_blade: bool, seed: int = SEED, noise: float = ARM_SIGMA) -> ArmMeasurements:
+    """``arm1_blade.csv`` (``on_blade``) or ``arm1_wafer.csv`` (module docstring); another ``seed`` draws other
+    configurations and noise, ``noise`` [m] the noise drawn (the rows' sigma stays :data:`ARM_SIGMA`)."""
     core, inner = machine()
     robot = dataclasses.replace(load_robot(), config=core.config_for(inner))
     arm = robot.arm('arm1')
-    rng = np.random.default_rng(SEED + on_blade)
+    rng = np.random.default_rng(seed + on_blade)
     cfg = robot.config
     Q = naive_inverse(rng.uniform(0.05, 0.45, ROWS), rng.uniform(0.0, 0.99, ROWS) * cfg.tilt_limit,
                       rng.uniform(-np.pi, np.pi, ROWS), cfg)
@@ -94,7 +95,8 @@ def arm_measurements(on_blade: bool) -> ArmMeasurements:
     truth = model.parameters.nominal + np.concatenate([np.ravel(np.column_stack([ARM_LENGTHS, ARM_OFFSETS])),
                                                        np.zeros(5)])
     framed = FramedModel(model, _transform(TRACKER), Transform.identity(), False, None, points=True)
-    points = synthetic_measurements(framed, truth, Q, ARM_SIGMA, SIGMA_ANGLE, seed=SEED + 2 + on_blade, points=True)
+    points = synthetic_measurements(framed, truth, Q, noise, SIGMA_ANGLE, seed=seed + 2 + on_blade, points=True)
+    points = dataclasses.replace(points, sigma_position=np.full(ROWS, ARM_SIGMA))
     return ArmMeasurements(points, 'arm1', J, blade, on)
 
 

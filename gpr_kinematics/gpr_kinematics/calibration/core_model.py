@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from ..core import forward_batch
 from ..core.config import GprConfig
-from ..core.geometry_covariance import KEY, GeometryCovariance, parse_covariance
+from ..core.geometry_covariance import BASE_NAMES, KEY, GeometryCovariance, RegisteredBase, parse_covariance
 from ..core.machine import MachineGeometry, config_with_parameters, parameter_vector
 from ..core.naive import centres_tilt
 from ..core.ops import ARRAY
@@ -249,12 +249,14 @@ def beyond_budget(config: GprConfig, q: Array) -> tuple[str, ...]:
             'the written file if this machine is right',)
 
 
-def fitted_covariance(model: PoseModel, res: CalibrationResult) -> GeometryCovariance | None:
+def fitted_covariance(model: PoseModel, res: CalibrationResult, frame: str = '') -> GeometryCovariance | None:
     """The covariance of the geometry parameters the fit ``res`` of ``model`` (a :class:`CoreModel`, or one in a
     measuring frame) determined, in their coordinates (SI, a ``kappaK`` as its anisotropy): ``M C M^T`` with ``M``
     the linear map from the fitted coordinates to the geometry's (``inner_theta``: a datum's dependent parameters
-    follow the fitted ones), the frames' own parameters left out. ``None`` without a finite one, or one the file's
-    loader would refuse."""
+    follow the fitted ones); with ``gpr_base`` identified in ``frame`` (its six coordinates fitted), its pose
+    and its :data:`~gpr_kinematics.core.geometry_covariance.BASE_NAMES` after them (``base_steps``: the rotation as a
+    turn about the frame's axes), the target's left out. ``None`` without a finite one, or one the file's loader
+    would refuse."""
     C = np.asarray(res.covariance, dtype=float)
     if res.fitted.size == 0 or C.shape != (res.fitted.size,) * 2 or not np.all(np.isfinite(C)):
         return None
@@ -268,8 +270,16 @@ def fitted_covariance(model: PoseModel, res: CalibrationResult) -> GeometryCovar
     keep = np.flatnonzero(np.any(M != 0.0, axis=1))
     if keep.size == 0:
         return None
-    out = M[keep] @ C @ M[keep].T
-    cov = GeometryCovariance(tuple(inner.parameters[int(j)].name for j in keep), 0.5 * (out + out.T))
+    names, M, base = tuple(inner.parameters[int(j)].name for j in keep), M[keep], None
+    steps, frames = getattr(model, 'base_steps', None), getattr(model, 'frames', None)
+    if frame and getattr(model, 'fit_base', False) and callable(steps) and callable(frames):
+        S = steps(theta)[:, res.fitted]
+        if np.all(np.any(S != 0.0, axis=1)):   # all six fitted: a held one has no covariance to give
+            pose = frames(theta)[0]
+            names, M = names + BASE_NAMES, np.vstack([M, S])
+            base = RegisteredBase(frame, tuple(float(v) for v in (*pose.position, *pose.rpy)))
+    out = M @ C @ M.T
+    cov = GeometryCovariance(names, 0.5 * (out + out.T), base=base)
     try:   # only a block every loader takes is written (a fit forced through its gate may be that poor)
         return parse_covariance(cov.as_block(), 'the fit')
     except ConfigError:

@@ -199,6 +199,21 @@ class FramedModel:
                        else np.broadcast_to(ref.rotation, (S, 3, 3)))
         return out[0], out[1], out[2], out[3]
 
+    def base_steps(self, theta: Array) -> Array:
+        """``(6, P)``: what a step of the coordinates ``theta (P,)`` moves the identified ``gpr_base`` by, its position
+        [m] and the small rotation ``d`` turning it about the frame's axes (``exp([r + dr]x) = exp([d]x) exp([r]x)``:
+        ``d = J_l(r) dr``, the left Jacobian ``I + (1 - cos t) / t^2 [r]x + (t - sin t) / t^3 [r]x^2``, ``t = |r|``)."""
+        k = self.n_inner
+        r = np.asarray(theta, dtype=float)[k + 3:k + 6]
+        t2 = float(r @ r)
+        a, b = ((1.0 - math.cos(math.sqrt(t2))) / t2, (math.sqrt(t2) - math.sin(math.sqrt(t2))) / t2 ** 1.5) \
+            if t2 > 1e-8 else (0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0)
+        K = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+        out = np.zeros((6, len(self.parameters)))
+        out[:3, k:k + 3] = np.eye(3)
+        out[3:, k + 3:k + 6] = np.eye(3) + a * K + b * K @ K
+        return out
+
     def poses(self, theta: Array, Q: Array, displacement: Array | None = None) -> tuple[Array, Array]:
         pos, rot = self.inner.poses(self.inner_theta(theta), Q, displacement)
         pb, Rb, pt, Rt = self._frames(theta)

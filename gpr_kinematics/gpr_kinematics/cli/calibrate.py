@@ -36,6 +36,7 @@ from ..inputs.resources import MEASUREMENTS, ROBOTS, TOLERANCES
 from ..inputs.units import as_typed, both_units
 from .calibrate_options import (
     EXIT_GATE,
+    base_option,
     config,
     declared,
     fixed_frame,
@@ -112,7 +113,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         plotted['plot_file'] = str(plot_residuals(args.plot, residual_plot(model, meas, res, sp, sa, declared(args))))
     path = None
     if write:
-        cov = fitted_covariance(model, res)
+        cov = fitted_covariance(model, res, args.frame)
         stamp = datetime.now(timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
         comments = (f'GPR geometry calibrated by `gpr calibrate` from {args.measurements[0]} ({res.rows} rows, '
                     f'measured in {args.frame}), {stamp}',
@@ -141,8 +142,13 @@ def _calibrate(args: argparse.Namespace) -> int:
 
 def _covariance_words(cov: GeometryCovariance) -> tuple[str, ...]:
     """The comment that says what the file's covariance block is."""
-    return (f'covariance: of the {len(cov.names)} fitted parameters (SI; kappaK as its anisotropy (kappa - 1) / '
-            '(kappa + 1)), for the arms\' standard errors: gpr calibrate --robot ROBOT --config THIS_FILE',)
+    words = (f'covariance: of the {len(cov.geometry().names)} fitted parameters (SI; kappaK as its anisotropy '
+             "(kappa - 1) / (kappa + 1)), for the arms' standard errors: gpr calibrate --robot ROBOT --config "
+             'THIS_FILE',)
+    if cov.base is None:
+        return words
+    return words + (f'its base: the registration of gpr_base in {cov.base.frame} with the geometry, for an arm '
+                    f'measured there: --frame {cov.base.frame} --base THIS_FILE --config THIS_FILE',)
 
 
 def _held_where(combinations: Sequence[Combination]) -> str:
@@ -249,13 +255,15 @@ def _handler(args: argparse.Namespace) -> int:
         if not lo <= si <= hi:   # named as typed (20 deg), the bounds in both units: it said '0.349... (SI)'
             raise InputError(f'{flag} = {as_typed(typed, si, unit, own)}; allowed: a standard deviation from '
                              f'{both_units(lo, hi, unit, own)}')
+    args.base, args.base_file = base_option(args.base, args.robot is not None)
     if not _FRAME.fullmatch(args.frame):   # isalnum took any script's letters and digits
         raise InputError(f'--frame {args.frame[:64]!r}; allowed: a frame name of 1 to 64 ASCII letters, digits and _')
     if args.robot is None:
         from ..core.config import GprConfig
         from ..robot.urdf import gpr_urdf
         fixed_frame(args.frame, gpr_urdf(GprConfig()))   # the frames' names: any geometry's
-    if args.base is not None and args.frame == 'gpr_base':  # it was applied: 0.5 mm moved the rod offsets by 0.5 mm
+    # --base in gpr_base was applied: 0.5 mm moved the rod offsets by 0.5 mm
+    if (args.base is not None or args.base_file is not None) and args.frame == 'gpr_base':
         raise InputError('--base gives the pose of gpr_base in --frame, which is gpr_base itself (the default): the '
                          'identity; allowed: --base with --frame naming the frame the measurements are in (tracker)')
     _check_plan_options(args)
@@ -296,8 +304,10 @@ def register(sub: Subparsers) -> None:
                    help='the fixed frame the measurements are in (default gpr_base; not one that moves with the '
                         'machine, gpr_platform ...); another (tracker): the pose of gpr_base in it is identified with '
                         'the geometry, unless --base gives it')
-    p.add_argument('--base', nargs=6, type=number, metavar=('X', 'Y', 'Z', 'ROLL', 'PITCH', 'YAW'),
-                   help='the known pose of gpr_base in --frame [m, rad; --mm, --deg]')
+    p.add_argument('--base', nargs='+', metavar='V',
+                   help='the known pose of gpr_base in --frame, X Y Z ROLL PITCH YAW [m, rad; --mm, --deg]; with '
+                        '--robot also FILE, a geometry gpr calibrate --frame wrote: its registration, whose '
+                        'uncertainty enters the arms\' standard errors and gate (with --config FILE)')
     p.add_argument('--target', nargs='+', type=number, metavar='V',
                    help='the target\'s pose in gpr_platform, X Y Z [ROLL PITCH YAW] [m, rad; --mm, --deg]: known, or '
                         'the start of --fit-target; default: gpr_platform itself (poses in gpr_base), else identified')

@@ -13,7 +13,8 @@ import numpy as np
 from ..core.config import GprConfig, load_config
 from ..errors import InputError, brief, one_line
 from ..inputs.units import metres
-from ..inputs.validation import MAX_COORDINATE
+from ..inputs.validation import MAX_COORDINATE, decimal
+from .options import number
 
 T = TypeVar('T')
 
@@ -24,6 +25,7 @@ if TYPE_CHECKING:
     from ..calibration.measurements import Measurements
     from ..calibration.model import PoseModel
     from ..calibration.tolerances import ToleranceTable
+    from ..core.geometry_covariance import GeometryCovariance
     from ..robot.urdf import RobotUrdf
 
 #: Exit status of a fit that failed its gate.
@@ -67,6 +69,54 @@ def refuse_unused_sigmas(args: argparse.Namespace, meas: Measurements, source: s
             raise InputError(f'{flag} {getattr(args, column):g}: the rows of {source} have their own {column} column, '
                              f'which the fit takes; allowed: {flag} for a file without that column (leave it out, or '
                              'the column)')
+
+
+def base_option(values: list[str] | None, robot: bool) -> tuple[list[float] | None, str | None]:
+    """``--base`` as typed: six numbers (the pose), or with ``robot`` one file (a calibrated geometry whose covariance
+    block has the registration: :func:`registered_base`); ``(numbers, file)``, either ``None``."""
+    if values is None:
+        return None, None
+    if len(values) == 1 and robot and not _reads_as_number(values[0]):
+        return None, values[0]
+    if len(values) != 6:
+        also = ' or, with --robot, one FILE (a geometry gpr calibrate --frame wrote, with its registration)'
+        raise InputError(f'--base takes 6 numbers (x y z roll pitch yaw){also if robot else ""}, got '
+                         f'{len(values)}: {brief(" ".join(values))}' + ('' if robot else f'; allowed: 6 numbers{also}'))
+    try:
+        return [number(v) for v in values], None
+    except ValueError as exc:
+        raise InputError(f'--base: {exc}') from None
+
+
+def _reads_as_number(text: str) -> bool:
+    try:
+        decimal(text)
+    except ValueError:
+        return False
+    return True
+
+
+def registered_base(path: str, frame: str, gpr: GeometryCovariance | None) -> GeometryCovariance:
+    """The covariance block of ``path`` with its registration of ``gpr_base`` in ``frame`` (``--base FILE``), whose
+    geometry is ``gpr``'s (the GPR the arms are calibrated with: ``--config FILE``, or the robot's section naming
+    it); else :class:`InputError` naming what is wrong and what is allowed."""
+    from pathlib import Path
+
+    from ..core.geometry_covariance import load_covariance
+    block = load_covariance(path)
+    allowed = ("allowed: a geometry gpr calibrate --frame NAME wrote (its covariance block with the registration's "
+               'base), or X Y Z ROLL PITCH YAW')
+    if block is None or block.base is None:
+        raise InputError(f'--base {path}: no registration of gpr_base with its covariance in that file; {allowed}')
+    if block.base.frame != frame:
+        raise InputError(f'--base {path}: its registration is of gpr_base in {block.base.frame}, and --frame is '
+                         f'{frame}; allowed: --frame {block.base.frame} (the frame it was registered in)')
+    if gpr is None or gpr.section or Path(gpr.source).resolve() != Path(path).resolve():
+        used = 'a geometry without a covariance block' if gpr is None else gpr.origin
+        raise InputError(f'--base {path}: its registration was identified with the geometry of that file, and the '
+                         f'GPR here is {used}; allowed: --config {path} with it (both, and their covariance, from '
+                         'one calibration)')
+    return block
 
 
 def pose(values: list[float] | None, args: argparse.Namespace, flag: str,

@@ -20,6 +20,7 @@ from .calibrate_options import (
     gate_outcome,
     pose,
     refuse_unused_sigmas,
+    registered_base,
     sigmas,
     table_of,
     with_given_poses,
@@ -63,10 +64,10 @@ def _check(args: argparse.Namespace) -> None:
                          'or the blade point of the columns bx, by, bz')
 
 
-def _models(args: argparse.Namespace,
-            robot: RobotDescription) -> tuple[dict[str, PoseModel], dict[str, ArmModel]]:
+def _models(args: argparse.Namespace, robot: RobotDescription,
+            registered: GeometryCovariance | None) -> tuple[dict[str, PoseModel], dict[str, ArmModel]]:
     """Per arm with files: its pose model in ``--frame`` and its :class:`~gpr_kinematics.calibration.arm.ArmModel`
-    (whose measurements it holds)."""
+    (whose measurements it holds); ``registered``: ``--base FILE``'s block, whose base is the known one."""
     from ..calibration.arm import ArmModel, merge, read_arm_measurements
     from ..calibration.frames import Transform, measuring_model
     parts: dict[str, list[ArmMeasurements]] = {}
@@ -74,11 +75,14 @@ def _models(args: argparse.Namespace,
         m = read_arm_measurements(path, robot)
         parts.setdefault(m.arm, []).append(m)
     base = None
-    if args.base is not None and args.frame == robot.world_frame:  # it replaced the description's base unsaid
+    given = args.base is not None or args.base_file is not None
+    if given and args.frame == robot.world_frame:  # it replaced the description's base unsaid
         raise InputError(f'--base gives the pose of gpr_base in --frame, which is {args.frame}, the world frame where '
                          'the robot description places gpr_base (its base); allowed: --base with --frame naming '
                          'another frame (the tracker\'s), or the description\'s base edited')
-    if args.base is not None:
+    if registered is not None and registered.base is not None:
+        base = Transform.from_xyz_rpy(registered.base.pose)
+    elif args.base is not None:
         base = pose(args.base, args, '--base', (6,))
     elif args.frame == robot.world_frame:
         base = Transform(np.asarray(robot.base_position, dtype=float), robot.base_rotation)
@@ -100,10 +104,11 @@ GEOMETRY_NOTE = ("the arms' standard errors take the GPR's geometry (--config, e
 
 
 def covariance_note(cov: GeometryCovariance) -> str:
-    """The ``note:`` when the arms' standard errors include the GPR's covariance ``cov``."""
+    """The ``note:`` when the arms' standard errors include the GPR's covariance ``cov`` (and its registration's)."""
+    base = '' if cov.base is None else f" and the 6 of its registration of gpr_base in {cov.base.frame} (--base)"
     return (f"the arms' standard errors include the GPR's calibration uncertainty: the covariance of its "
-            f"{len(cov.names)} calibrated parameters (fitted, or derived from them by a registration's datum) in "
-            f'{cov.origin}, propagated to first order (K Sigma_g K^T, docs/calibration.md)')
+            f"{len(cov.geometry().names)} calibrated parameters (fitted, or derived from them by a registration's "
+            f'datum){base} in {cov.origin}, propagated to first order (K Sigma_g K^T, docs/calibration.md)')
 
 
 def _without(res: CalibrationResult, plain: np.ndarray) -> str:
@@ -143,13 +148,23 @@ def _gpr_dict(cov: GeometryCovariance | None, plain: dict[str, float]) -> dict[s
             'standard_error_without': plain}
 
 
+def _gpr_covariance(args: argparse.Namespace, robot: RobotDescription) -> GeometryCovariance | None:
+    """The GPR's calibration covariance: ``--config``'s block, else the robot's gpr section's
+    (:mod:`~gpr_kinematics.robot.gpr_section`); its registration's base with it only for ``--base FILE``
+    (:func:`~.calibrate_options.registered_base`), else the geometry's parameters alone."""
+    from ..core.geometry_covariance import load_covariance
+    cov = load_covariance(args.config) if args.config is not None else robot.gpr_covariance
+    if args.base_file is not None:
+        return registered_base(args.base_file, args.frame, cov)
+    return cov.geometry() if cov is not None else None
+
+
 def calibrate_robot(args: argparse.Namespace) -> int:
     """Identify every arm with measurement files (module docstring); status 0, or 1 when a fit fails its gate."""
     from ..calibration.arm_gpr import ResidualShare, gain, weighted_jacobians, weighted_residuals, with_gpr_covariance
     from ..calibration.frames import FramedModel, registration
     from ..calibration.identification import identify, weights
     from ..calibration.report import format_calibration
-    from ..core.geometry_covariance import load_covariance
     from ..robot.description import load_robot
     from ..robot.gpr_section import GprSection
     from ..robot.urdf import robot_urdf
@@ -161,12 +176,10 @@ def calibrate_robot(args: argparse.Namespace) -> int:
         raise InputError(f'--frame world: the world frame of robot {robot.name} is {urdf.root} (its description\'s '
                          f'base frame); allowed: --frame {urdf.root} for measurements in it, gpr_base, or a tracker\'s '
                          'frame under a name of its own (it would be fitted: world would read as a tracker here)')
-    models, inners = _models(args, robot)
-    # the GPR's calibration covariance: --config's block, else the robot's gpr section's (robot.gpr_section); the
-    # calibrated robot written carries it
-    gpr_cov = load_covariance(args.config) if args.config is not None else robot.gpr_covariance
+    gpr_cov = _gpr_covariance(args, robot)
+    models, inners = _models(args, robot, gpr_cov)
     left = robot.gpr.left if args.config is None else ''
-    robot = dataclasses.replace(robot, gpr=GprSection(gpr_cov))
+    robot = dataclasses.replace(robot, gpr=GprSection(gpr_cov.geometry() if gpr_cov is not None else None))
     sp, sa = sigmas(args, table_of(args))
     free = _free(args, models)
     results, texts, values = [], [], {}

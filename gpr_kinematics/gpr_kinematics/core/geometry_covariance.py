@@ -6,11 +6,16 @@
       names: [rod1_x, rod1_y, ...]    # the fitted geometry parameters (core.parameters.PARAMETER_NAMES)
       matrix: [[...], ...]            # their covariance, SI: m^2, rad^2, m rad; kappaK as its anisotropy
                                       # (kappa - 1) / (kappa + 1), dimensionless
+      base: {frame: tracker, position: [x, y, z], rpy: [roll, pitch, yaw]}   # with a registration (m, rad)
 
-Checked on load (:func:`parse_covariance`): known, distinct names; one row of as many numbers per name; every entry
-finite and at most :data:`MAX_ENTRY` in magnitude; symmetric within :data:`ROUNDING` of ``sqrt(C_ii C_kk)`` entry by
-entry; a variance of 0 without covariances; positive semi-definite within rounding (every eigenvalue of its
-correlation matrix at least ``-ROUNDING``).
+With ``base``, the names end with :data:`BASE_NAMES`: the registration's pose of ``gpr_base`` in ``frame``
+(identified with the geometry, so correlated with it), ``base_x base_y base_z`` its position [m] and ``base_rx base_ry
+base_rz`` a small rotation ``d`` [rad] turning it about the frame's axes, ``R = exp([d]x) R(rpy)``.
+
+Checked on load (:func:`parse_covariance`): known, distinct names (the base's six last, with ``base`` only); one row
+of as many numbers per name; every entry finite and at most :data:`MAX_ENTRY` in magnitude; symmetric within
+:data:`ROUNDING` of ``sqrt(C_ii C_kk)`` entry by entry; a variance of 0 without covariances; positive semi-definite
+within rounding (every eigenvalue of its correlation matrix at least ``-ROUNDING``).
 """
 from __future__ import annotations
 
@@ -34,19 +39,35 @@ MAX_ENTRY = 1e6
 #: Relative rounding allowed in the symmetry and the eigenvalues of the correlation matrix.
 ROUNDING = 1e-9
 _ALLOWED = ('a mapping of names (the fitted geometry parameters, e.g. rod1_x, kappa2) and matrix (their covariance, '
-            'one row of numbers per name, SI)')
+            'one row of numbers per name, SI), and base with a registration')
+#: The registration's parameters of ``gpr_base`` in the measuring frame (module docstring), after the geometry's.
+BASE_NAMES = ('base_x', 'base_y', 'base_z', 'base_rx', 'base_ry', 'base_rz')
+_BASE = 'base: {frame: NAME, position: [x, y, z] (m), rpy: [roll, pitch, yaw] (rad)}'
+
+
+@dataclass(frozen=True)
+class RegisteredBase:
+    """The pose of ``gpr_base`` in ``frame`` a calibration identified: ``pose`` x y z [m], roll pitch yaw [rad]."""
+
+    frame: str
+    pose: tuple[float, ...]
+
+    def as_block(self) -> dict[str, YamlValue]:
+        return {'frame': self.frame, 'position': list(self.pose[:3]), 'rpy': list(self.pose[3:])}
 
 
 @dataclass(frozen=True, eq=False)
 class GeometryCovariance:
     """Covariance ``matrix (n, n)`` of the geometry parameters ``names`` (coordinates of
     :mod:`gpr_kinematics.calibration.core_model`: SI, a ``kappaK`` as its anisotropy), read from the file ``source``
-    (in its ``section``, a robot description's ``gpr``; ``''``: a geometry file's own block)."""
+    (in its ``section``, a robot description's ``gpr``; ``''``: a geometry file's own block), with the registration's
+    ``base`` (its six :data:`BASE_NAMES` last in ``names``) or ``None``."""
 
     names: tuple[str, ...]
     matrix: NDArray[np.float64]
     source: str = ''
     section: str = ''
+    base: RegisteredBase | None = None
 
     @property
     def origin(self) -> str:
@@ -55,21 +76,56 @@ class GeometryCovariance:
 
     def as_block(self) -> dict[str, YamlValue]:
         """The file's block (floats at full precision)."""
-        return {'names': list(self.names), 'matrix': [[float(v) for v in row] for row in self.matrix]}
+        block: dict[str, YamlValue] = {'names': list(self.names),
+                                       'matrix': [[float(v) for v in row] for row in self.matrix]}
+        return block | ({'base': self.base.as_block()} if self.base is not None else {})
+
+    def geometry(self) -> GeometryCovariance:
+        """The geometry's parameters alone (the base's rows and columns left out: their marginal covariance)."""
+        if self.base is None:
+            return self
+        keep = [i for i, n in enumerate(self.names) if n not in BASE_NAMES]
+        return GeometryCovariance(tuple(self.names[i] for i in keep), self.matrix[np.ix_(keep, keep)], self.source,
+                                  self.section)
 
 
-def _names(value: YamlValue, where: str) -> tuple[str, ...]:
-    known = PARAMETER_NAMES
+def _names(value: YamlValue, where: str, base: bool) -> tuple[str, ...]:
+    known = PARAMETER_NAMES + BASE_NAMES if base else PARAMETER_NAMES
     allowed = f'allowed: a list of distinct geometry parameter names ({", ".join(known)})'
+    if base:
+        allowed += ', the last six those of the base'
     if not isinstance(value, list) or not value or len(value) > len(known):
         raise ConfigError(f'{where}: names = {brief(value)} is invalid; {allowed}')
+    if not base and any(n in BASE_NAMES for n in value):   # a registration's parameters without its pose
+        raise ConfigError(f'{where}: names: {brief(next(n for n in value if n in BASE_NAMES))} without base, the pose '
+                          f'they are about; allowed: {_BASE} with them, or the geometry\'s names alone')
     bad = [n for n in value if not isinstance(n, str) or n not in known]
     if bad:
         raise ConfigError(f'{where}: names: unknown parameter {brief(bad[0])}; {allowed}')
     twice = sorted({n for n in value if value.count(n) > 1})
     if twice:
         raise ConfigError(f'{where}: names: {", ".join(map(str, twice))} named twice; {allowed}')
+    if base and tuple(value[-len(BASE_NAMES):]) != BASE_NAMES:
+        raise ConfigError(f'{where}: names: with base, the last six are {", ".join(BASE_NAMES)}; {allowed}')
     return tuple(str(n) for n in value)
+
+
+def _base(value: YamlValue, where: str) -> RegisteredBase:
+    """The registration's ``base``: a frame's name, a position and rpy of 3 finite numbers each."""
+    allowed = f'allowed: {_BASE}, numbers finite and at most {MAX_ENTRY:g} in magnitude'
+    if not isinstance(value, Mapping):
+        raise ConfigError(f'{where}: base = {brief(value)} is invalid; {allowed}')
+    check_keys(value, ('frame', 'position', 'rpy'), f'{where}: base')
+    frame = value.get('frame')
+    if not isinstance(frame, str) or not frame:
+        raise ConfigError(f'{where}: base: frame = {brief(frame)} is invalid; {allowed}')
+    pose: list[float] = []
+    for key in ('position', 'rpy'):
+        v = value.get(key)
+        if not isinstance(v, list) or len(v) != 3 or not all(is_number(x) and abs(float(x)) <= MAX_ENTRY for x in v):
+            raise ConfigError(f'{where}: base: {key} = {brief(v)} is invalid; {allowed}')
+        pose += [float(x) for x in v]
+    return RegisteredBase(frame, tuple(pose))
 
 
 def _matrix(value: YamlValue, names: tuple[str, ...], where: str) -> NDArray[np.float64]:
@@ -124,14 +180,14 @@ def parse_covariance(block: YamlValue, source: str) -> GeometryCovariance:
     where = f'{source}: {KEY}'
     if not isinstance(block, Mapping):
         raise ConfigError(f'{where} = {brief(block)} ({kind_of(block)}) is invalid; allowed: {_ALLOWED}')
-    check_keys(block, ('names', 'matrix'), where)
+    check_keys(block, ('names', 'matrix', 'base'), where)
     for key in ('names', 'matrix'):
         if key not in block:
             raise ConfigError(f'{where}: missing key {key}; allowed: {_ALLOWED}')
-    names = _names(block['names'], where)
+    names = _names(block['names'], where, 'base' in block)
     C = _matrix(block['matrix'], names, where)
     _check(C, names, where)
-    return GeometryCovariance(names, C, source)
+    return GeometryCovariance(names, C, source, base=_base(block['base'], where) if 'base' in block else None)
 
 
 def split_covariance(data: Mapping[str, YamlValue], source: str
