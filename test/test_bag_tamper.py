@@ -689,6 +689,45 @@ def test_an_edited_embedded_schema_fails(sweep: Path, tmp_path: Path) -> None:
     assert "'float32 residual', the package's 'float64 residual'" in failure.detail
 
 
+
+def _swapped_poses(name: str, text: str) -> str:
+    """PlatformState's definition with ``pose`` and ``nominal_pose`` swapped: every field still decodes, into the
+    other's name."""
+    if not name.endswith('PlatformState'):
+        return text
+    return (text.replace('geometry_msgs/Pose pose\n', 'TMP\n')
+            .replace('geometry_msgs/Pose nominal_pose\n', 'geometry_msgs/Pose pose\n')
+            .replace('TMP\n', 'geometry_msgs/Pose nominal_pose\n'))
+
+
+def _volatile(topic: str, meta: dict[str, str]) -> dict[str, str]:
+    return {**meta, 'offered_qos_profiles': meta['offered_qos_profiles'].replace('transient_local', 'volatile')}
+
+
+@pytest.mark.parametrize('topic, edit, ids, differ', [
+    (STATE, {'schema': _swapped_poses}, (8, 9), 'embedded definition'),
+    (GEOMETRY_TOPIC, {'channel': _volatile}, (8, 9), "metadata 'offered_qos_profiles'"),
+])
+def test_a_second_channel_of_a_topic_that_differs_is_refused(sweep: Path, tmp_path: Path, topic: str,
+                                                            edit: dict[str, Any], ids: tuple[int, int],
+                                                            differ: str) -> None:
+    """The messages on a channel whose definition swaps pose and nominal_pose (or which offers the latched geometry
+    volatile), an empty second channel of the topic with the package's definition and QoS (re-signed): the reader
+    kept one definition and one QoS per topic, the last channel's, and read the messages of both, so verify passed
+    while an independent decoder (mcap_ros2) read every state's pose as its nominal pose. rosbag2 writes one channel
+    per topic: two that differ are refused, both named; an identical twin reads alike and passes."""
+    from gpr_kinematics.bags.errors import BagError
+
+    bag = tampered(sweep, tmp_path / 'twin', twin=topic, **edit)
+    with pytest.raises(BagError) as info:
+        verify_bag(bag)
+    count = 30 if topic == STATE else 1
+    assert str(info.value) == (f"{bag / 'sweep_0.mcap'}: topic {topic!r} has two channels (ids {ids[0]} and "
+                               f'{ids[1]}, with {count} and 0 messages) that differ in their {differ}; allowed: one '
+                               'channel per topic (rosbag2 writes one), or channels alike in type, definition, '
+                               'encoding and metadata')
+    assert verify_bag(tampered(sweep, tmp_path / 'alike', twin=topic)).passed
+
 # -- the fuzz ---------------------------------------------------------------------------------------------------------
 
 def _leaves(msg: Any, prefix: list[str | int], template: str) -> list[tuple[list[str | int], str]]:

@@ -8,7 +8,8 @@ Reading is done in three steps, each with its own errors:
    list are noted, not read;
 2. **validate**: the metadata's fields and types (:mod:`.metadata`), every storage file a regular file (a FIFO
    is refused without being opened for reading, so nothing blocks);
-3. **decode**: each file with a bounded reader, :func:`.mcap_file.read_mcap` (every length and CRC checked) or
+3. **decode**: each file with a bounded reader, :func:`.mcap_file.read_mcap` (every length and CRC checked; the
+   channels of one topic alike, :func:`_one_channel_per_topic`) or
    :func:`.sqlite_file.read_sqlite` (``PRAGMA quick_check`` first), computing each file's SHA-256 on the way.
 
 Every failure is a :class:`~gpr_kinematics.bags.errors.BagError` whose one-line message names the file and
@@ -31,7 +32,7 @@ from ..errors import brief
 from .cdr import Columns, decode_columns
 from .errors import BagError
 from .fileio import require_regular, shown, status_of
-from .mcap_file import read_mcap
+from .mcap_file import McapChannel, read_mcap
 from .metadata import INT_END, Metadata, read_metadata
 from .sqlite_file import read_sqlite
 from .storage_file import Contents, StorageFile
@@ -225,6 +226,7 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, mess
     bad = sorted({c.encoding for c in m.channels.values()} - {'cdr'})
     if bad:
         raise BagError(f'{path}: message encoding {", ".join(bad)}; allowed: cdr')
+    _one_channel_per_topic(path, m.channels, m.counts)
     schemas = {ch.topic: (ch.schema_encoding, ch.schema_text) for ch in m.channels.values()}
     formats = {ch.topic: ch.encoding for ch in m.channels.values()}
     qos = {ch.topic: ch.meta('offered_qos_profiles') for ch in m.channels.values()
@@ -244,6 +246,31 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, mess
     info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
                        m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats, qos)
     return Contents(info, times, data, m.inflated, m.messages)
+
+
+def _one_channel_per_topic(path: Path, channels: dict[int, McapChannel], counts: dict[int, int]) -> None:
+    """:class:`BagError` if two channels of one topic differ in their type, embedded definition (schema), message
+    encoding or metadata (offered QoS, type hash): the file's definition and QoS are kept per topic while the messages
+    of all its channels are read, so an empty second channel with the package's definition hid a message-carrying one
+    whose definition swapped two fields (an independent decoder misread every state, verify passed). rosbag2 writes
+    one channel per topic; channels alike in all of these read alike, and pass."""
+    first: dict[str, McapChannel] = {}
+    for cid, ch in channels.items():
+        seen = first.setdefault(ch.topic, ch)
+        if seen is ch:
+            continue
+        differ = [what for what, a, b in (('type', seen.msgtype, ch.msgtype),
+                                          ('schema encoding', seen.schema_encoding, ch.schema_encoding),
+                                          ('embedded definition', seen.schema_text, ch.schema_text),
+                                          ('message encoding', seen.encoding, ch.encoding)) if a != b]
+        mine, theirs = dict(seen.metadata), dict(ch.metadata)
+        differ += [f'metadata {brief(k, 40)}' for k in sorted(set(mine) | set(theirs)) if mine.get(k) != theirs.get(k)]
+        if differ:
+            raise BagError(f'{path}: topic {ch.topic!r} has two channels (ids {seen.id} and {cid}, with '
+                           f'{counts.get(seen.id, 0)} and {counts.get(cid, 0)} messages) that differ in '
+                           f'their {", ".join(differ[:4])}{", ..." if len(differ) > 4 else ""}; allowed: one channel '
+                           'per topic (rosbag2 writes one), or channels alike in type, definition, encoding and '
+                           'metadata')
 
 
 def read_bag(path: str | Path, topics: list[str] | None = None) -> Bag:
