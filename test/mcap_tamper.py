@@ -161,3 +161,13 @@ def set_path(msg: Any, path: list[str | int], value: Any) -> Any:
         return items
     inner = getattr(msg, head)
     return dataclasses.replace(msg, **{head: set_path(inner, rest, value) if rest else value})
+
+
+def swapped_poses(name: str, text: str) -> str:
+    """PlatformState's definition (``name`` its type) with ``pose`` and ``nominal_pose`` swapped: every message still
+    decodes, each pose under the other's name (other types' ``text`` unchanged)."""
+    if not name.endswith('PlatformState'):
+        return text
+    return (text.replace('geometry_msgs/Pose pose\n', 'TMP\n')
+            .replace('geometry_msgs/Pose nominal_pose\n', 'geometry_msgs/Pose pose\n')
+            .replace('TMP\n', 'geometry_msgs/Pose nominal_pose\n'))

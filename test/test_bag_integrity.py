@@ -519,6 +519,38 @@ def test_an_sqlite_topic_listed_twice_is_named(tmp_path: Path, src: Path) -> Non
                                'per topic')
 
 
+@pytest.mark.parametrize('swapped', [True, False])
+def test_an_sqlite_type_defined_twice_is_refused(tmp_path: Path, src: Path, swapped: bool) -> None:
+    """PlatformState's row of message_definitions edited to swap pose and nominal_pose, the package's definition
+    appended as a second row of the type (re-signed): the reader kept the last row of a type, checked it and passed,
+    while a reader taking the first decodes every state's pose as its nominal pose. rosbag2 writes one row per type:
+    a second is refused, both named (the same text appended is refused too)."""
+    import sqlite3
+
+    from mcap_tamper import resign, swapped_poses
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    bag = write_bag(tmp_path / 'db', msgs, types, storage='sqlite3')
+    (db,) = bag.glob('*.db3')
+    with sqlite3.connect(db) as conn:
+        did, name, encoding, text, digest = conn.execute(
+            "SELECT * FROM message_definitions WHERE topic_type = 'gpr_interfaces/msg/PlatformState'").fetchone()
+        if swapped:
+            conn.execute('UPDATE message_definitions SET encoded_message_definition = ? WHERE id = ?',
+                         (swapped_poses(name, text), did))
+        conn.execute('INSERT INTO message_definitions (topic_type, encoding, encoded_message_definition, '
+                     'type_description_hash) VALUES (?, ?, ?, ?)', (name, encoding, text, digest))
+        (last,) = conn.execute('SELECT max(id) FROM message_definitions').fetchone()
+    conn.close()
+    resign(bag)
+    with pytest.raises(BagError) as info:
+        verify_bag(bag)
+    assert str(info.value) == (f'{db}: type gpr_interfaces/msg/PlatformState is defined twice in the '
+                               f'message_definitions table (ids {did} and {last}: '
+                               f"{'different definitions' if swapped else 'the same definition'}); allowed: one row "
+                               'per type (rosbag2 writes one)')
+
 def test_the_metadata_of_a_recording_of_hours_reads_back(tmp_path: Path) -> None:
     """13,000 segments (3.6 hours at the default flush_interval of 1 s) made 3.6 MB of metadata.yaml that the reader
     refused ('more than 200000 YAML values': the package's YAML bound, not the metadata's 16 MiB): the recorder kept

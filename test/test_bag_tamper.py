@@ -37,7 +37,7 @@ from gpr_kinematics.robot.platform_program import load_platform_program
 from gpr_kinematics.robot.program import load_program
 from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
-from mcap_tamper import edited, set_path, tampered
+from mcap_tamper import edited, set_path, swapped_poses, tampered
 
 STATE = '/gpr/platform_state'
 EXAMPLES = int(os.environ.get('GPR_FUZZ_EXAMPLES', '12'))
@@ -690,22 +690,12 @@ def test_an_edited_embedded_schema_fails(sweep: Path, tmp_path: Path) -> None:
 
 
 
-def _swapped_poses(name: str, text: str) -> str:
-    """PlatformState's definition with ``pose`` and ``nominal_pose`` swapped: every field still decodes, into the
-    other's name."""
-    if not name.endswith('PlatformState'):
-        return text
-    return (text.replace('geometry_msgs/Pose pose\n', 'TMP\n')
-            .replace('geometry_msgs/Pose nominal_pose\n', 'geometry_msgs/Pose pose\n')
-            .replace('TMP\n', 'geometry_msgs/Pose nominal_pose\n'))
-
-
 def _volatile(topic: str, meta: dict[str, str]) -> dict[str, str]:
     return {**meta, 'offered_qos_profiles': meta['offered_qos_profiles'].replace('transient_local', 'volatile')}
 
 
 @pytest.mark.parametrize('topic, edit, ids, differ', [
-    (STATE, {'schema': _swapped_poses}, (8, 9), 'embedded definition'),
+    (STATE, {'schema': swapped_poses}, (8, 9), 'embedded definition'),
     (GEOMETRY_TOPIC, {'channel': _volatile}, (8, 9), "metadata 'offered_qos_profiles'"),
 ])
 def test_a_second_channel_of_a_topic_that_differs_is_refused(sweep: Path, tmp_path: Path, topic: str,

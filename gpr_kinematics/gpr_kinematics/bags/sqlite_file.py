@@ -2,8 +2,9 @@
 
 ``PRAGMA quick_check`` first; the ``topics``, ``messages`` and ``message_definitions`` tables must be stored
 tables of stored columns (:func:`_stored_tables`: a view, a virtual table or a generated column computes what is
-read), one row per topic (:func:`_topics_table`), the messages counted before any is read. Every failure is a
-:class:`~gpr_kinematics.bags.errors.BagError` naming the file; the SHA-256 of the file is computed on the way.
+read), one row per topic (:func:`_topics_table`) and per type (:func:`_definitions`), the messages counted before
+any is read. Every failure is a :class:`~gpr_kinematics.bags.errors.BagError` naming the file; the SHA-256 of the
+file is computed on the way.
 """
 from __future__ import annotations
 
@@ -44,8 +45,9 @@ def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -
             rows = con.execute(f'SELECT id, name, type, serialization_format, {hashes}, {profiles} '
                                'FROM topics').fetchall()
             tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-            definitions = con.execute('SELECT topic_type, encoding, encoded_message_definition FROM '
-                                      'message_definitions').fetchall() if b'message_definitions' in tables else []
+            definitions = con.execute('SELECT id, topic_type, encoding, encoded_message_definition FROM '
+                                      'message_definitions ORDER BY id').fetchall() \
+                if b'message_definitions' in tables else []
             names, types, digests, formats, qos = _topics_table(rows, path)
             total = messages + con.execute('SELECT count(*) FROM messages').fetchone()[0]
             if total > MAX_MESSAGES:
@@ -73,7 +75,7 @@ def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -
         raise BagError(f'{path}: corrupt SQLite3 database ({exc})') from None
     except UnicodeDecodeError:  # Python cannot make a str of SQLite's error message that quotes corrupt bytes
         raise BagError(f'{path}: corrupt SQLite3 database (an error about bytes that are not UTF-8)') from None
-    defined = {_text(t): (_text(e), _text(d)) for t, e, d in definitions}
+    defined = _definitions(definitions, path)
     schemas = {name: defined[ty] for name, ty in types.items() if ty in defined}
     info = StorageFile(path.name, size, sha, counts, types, digests, first, last, schemas=schemas, formats=formats,
                        qos=qos)
@@ -111,6 +113,23 @@ def _topics_table(rows: list[tuple[object, ...]], path: Path) -> tuple[dict[int,
         types[name] = normalize_type(msgtype)
         digests[name] = digest
     return names, types, digests, formats, qos
+
+
+def _definitions(rows: list[tuple[object, ...]], path: Path) -> dict[str, tuple[str, str]]:
+    """The ``message_definitions`` table's rows (id, type, encoding, text) as (encoding, text) by type, one row per
+    type: rosbag2 (and ``rosbags``) write one per type, and the reader checks one definition per type, so a second row
+    had the last one checked while a reader that takes the first decoded by the other (a row swapping ``pose`` and
+    ``nominal_pose`` passed beside the package's definition appended)."""
+    defined: dict[str, tuple[str, str]] = {}
+    ids: dict[str, object] = {}
+    for did, t, e, d in rows:
+        name, entry = _text(t), (_text(e), _text(d))
+        if name in defined:
+            alike = 'the same definition' if defined[name] == entry else 'different definitions'
+            raise BagError(f'{path}: type {name} is defined twice in the message_definitions table (ids {ids[name]} '
+                           f'and {did}: {alike}); allowed: one row per type (rosbag2 writes one)')
+        defined[name], ids[name] = entry, did
+    return defined
 
 
 def _stored_tables(con: sqlite3.Connection, path: Path) -> None:
