@@ -485,9 +485,11 @@ def test_an_sqlite_database_profile_edited_against_metadata_fails(tmp_path: Path
     resign(bag)
     result = verify_bag(bag)
     assert {f.check for f in result.failures} == {'bag.metadata'}
-    (detail,) = [f.detail for f in result.failures]
+    detail, own = [f.detail for f in result.failures]
     assert detail.startswith('offered_qos_profiles in db_0.db3: metadata.yaml says [{')
     assert "'durability': 'volatile'" in detail.split('the files hold')[1]
+    assert own == ("db_0.db3's own metadata (its metadata table, row 1): offered_qos_profiles[0].durability of "
+                   "/gpr/geometry: it says 'transient_local', the topics table 'volatile'")
     with sqlite3.connect(old / 'db_0.db3') as conn:
         conn.execute("UPDATE topics SET offered_qos_profiles = '[]'")
     conn.close()
@@ -550,6 +552,105 @@ def test_an_sqlite_type_defined_twice_is_refused(tmp_path: Path, src: Path, swap
                                f'message_definitions table (ids {did} and {last}: '
                                f"{'different definitions' if swapped else 'the same definition'}); allowed: one row "
                                'per type (rosbag2 writes one)')
+
+def _own_metadata(db: Path, edit: Any) -> None:
+    """Every row of the database's own metadata table (YAML) through ``edit(rows)`` -> rows (text)."""
+    import sqlite3
+
+    with sqlite3.connect(db) as conn:
+        rows = conn.execute('SELECT metadata_version, metadata FROM metadata ORDER BY id').fetchall()
+        conn.execute('DELETE FROM metadata')
+        conn.executemany('INSERT INTO metadata (metadata_version, metadata) VALUES (?, ?)', edit(rows))
+    conn.close()
+
+
+def test_an_sqlite_databases_own_metadata_is_checked(tmp_path: Path, src: Path) -> None:
+    """rosbag2's sqlite3 plugin keeps the bag's metadata in the database's metadata table (and reads it back); nothing
+    read it: the latched topics edited to volatile there and every count of 30 to 3000 (re-signed) passed, as a single
+    file too. It is compared with the files as bag.metadata compares metadata.yaml, each difference named."""
+    from mcap_tamper import resign
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    bag = write_bag(tmp_path / 'db', msgs, types, storage='sqlite3')
+    (db,) = bag.glob('*.db3')
+    _own_metadata(db, lambda rows: [(v, text.replace('durability: transient_local', 'durability: volatile')
+                                     .replace('message_count: 30\n', 'message_count: 3000\n')) for v, text in rows])
+    resign(bag)
+    where = "db_0.db3's own metadata (its metadata table, row 1): "
+    want = [where + f"offered_qos_profiles[0].durability of {t}: it says 'volatile', the topics table "
+            "'transient_local'" for t in ('/gpr/geometry', '/gpr/program', '/gpr/robot')] + [
+            where + f'message_count of {t}: it says 3000, the files hold 30' for t in
+            ('/gpr/platform_state', '/gpr/platform_pose', '/gpr/nominal_pose', '/joint_states', '/gpr/virtual_joints',
+             '/gpr/markers')]
+    for path, kw in ((bag, {}), (db, {'allow_missing_checksums': True})):
+        result = verify_bag(path, **kw)
+        assert {f.check for f in result.failures} == {'bag.metadata'}
+        assert sorted(f.detail for f in result.failures) == sorted(want)
+
+
+def test_an_sqlite_databases_own_metadata_is_read_within_the_metadata_bound(tmp_path: Path, src: Path) -> None:
+    """The metadata table is read to be checked: more than metadata.yaml's 16 MiB of it is refused before it is read
+    (rosbag2 stores a few kB at each update)."""
+    from gpr_kinematics.bags.metadata import MAX_METADATA_BYTES
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    bag = write_bag(tmp_path / 'db', msgs, types, storage='sqlite3')
+    (db,) = bag.glob('*.db3')
+    _own_metadata(db, lambda rows: rows + [(9, 'x' * MAX_METADATA_BYTES)])
+    with pytest.raises(BagError) as info:
+        read_bag(bag)
+    assert str(info.value) == (f'{db}: metadata table of 2 rows, {MAX_METADATA_BYTES + len(_own_rows(db)[0][1])} '
+                               f'bytes; allowed: at most {MAX_METADATA_BYTES} bytes (rosbag2 stores a few kB at each '
+                               'update)')
+
+
+def _own_rows(db: Path) -> list[tuple[int, str]]:
+    import sqlite3
+
+    with sqlite3.connect(db) as conn:
+        rows = conn.execute('SELECT metadata_version, metadata FROM metadata ORDER BY id').fetchall()
+    conn.close()
+    return rows
+
+def test_the_own_metadata_of_rosbag2s_split_sqlite_files_passes_and_is_checked(tmp_path: Path, src: Path) -> None:
+    """rosbag2 writes a row when a file opens (the files so far, no topics: its counts lag while recording), one
+    before a split, and at the end one listing every file and topic with the final counts; the last file's last row
+    is the one it reads back. Such rows of a split bag pass; the final row's count edited fails, and so does an
+    earlier row that claims more messages than its files hold."""
+    from mcap_tamper import resign
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    bag = write_bag(tmp_path / 'db', msgs, types, storage='sqlite3', max_bag_duration=0.01)
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    names = info['relative_file_paths']
+    assert len(names) == 3
+    final = {k: v for k, v in info.items() if k != 'custom_data'}
+    for i, name in enumerate(names):
+        opened = {**final, 'relative_file_paths': names[:i + 1], 'files': info['files'][:i + 1],
+                  'topics_with_message_count': [], 'message_count': sum(f['message_count'] for f in
+                                                                         info['files'][:i])}
+        rows = [opened] + ([final] if i == len(names) - 1 else [{**opened, 'message_count': opened['message_count'] +
+                                                                 info['files'][i]['message_count']}])
+        _own_metadata(bag / name, lambda _, rows=rows: [(9, yaml.safe_dump(r)) for r in rows])
+    resign(bag)
+    assert verify_bag(bag).passed
+
+    def more(rows: list[tuple[int, str]]) -> list[tuple[int, str]]:
+        first = yaml.safe_load(rows[0][1])
+        return [(9, yaml.safe_dump({**first, 'message_count': 10 ** 6}))] + rows[1:]
+
+    _own_metadata(bag / names[1], more)
+    _own_metadata(bag / names[2], lambda rows: rows[:-1] + [(9, rows[-1][1].replace('message_count: 30\n',
+                                                                                    'message_count: 29\n', 1))])
+    resign(bag)
+    assert [f.detail for f in verify_bag(bag).failures] == [
+        f"{names[1]}'s own metadata (its metadata table, row 1): message_count: it says 1000000; allowed: 0 to "
+        f"{sum(f['message_count'] for f in info['files'][:2])}, the messages of the files it lists",
+        f"{names[2]}'s own metadata (its metadata table, row 2): message_count of /gpr/markers: it says 29, "
+        'the files hold 30']
 
 def test_the_metadata_of_a_recording_of_hours_reads_back(tmp_path: Path) -> None:
     """13,000 segments (3.6 hours at the default flush_interval of 1 s) made 3.6 MB of metadata.yaml that the reader

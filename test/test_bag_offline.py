@@ -447,17 +447,19 @@ def _refused_at_once(db: Path, pattern: str) -> None:
     assert time.monotonic() - t0 < 10
 
 
-@pytest.mark.parametrize('table', ['messages', 'topics'])
+@pytest.mark.parametrize('table', ['messages', 'topics', 'metadata'])
 def test_a_view_in_place_of_a_rosbag2_table_is_refused_at_once(tmp_path: Path, messages: list, table: str) -> None:
     """A view computes its rows: an endless recursive ``messages`` view never finished reading (and filled the temp
-    folder), an endless ``topics`` view filled the memory. Only stored rows are read."""
+    folder), an endless ``topics`` view filled the memory. Only stored rows are read (the database's own metadata
+    too, which is read since it is checked)."""
     endless = {'messages': "SELECT x AS id, 1 AS topic_id, x AS timestamp, x'00010000' AS data FROM c",
                'topics': "SELECT x AS id, '/t' || x AS name, 'std_msgs/msg/String' AS type, 'cdr' AS "
-                         "serialization_format, '' AS offered_qos_profiles, '' AS type_description_hash FROM c"}[table]
+                         "serialization_format, '' AS offered_qos_profiles, '' AS type_description_hash FROM c",
+               'metadata': "SELECT x AS id, 9 AS metadata_version, 'version: 9' AS metadata FROM c"}[table]
     db = _schema_edited(tmp_path, messages, f'DROP TABLE {table}; CREATE VIEW {table} AS WITH RECURSIVE c(x) AS '
                                             f'(SELECT 1 UNION ALL SELECT x + 1 FROM c) {endless};')
     _refused_at_once(db, rf"b_0\.db3: {table} is a view, not a table; allowed: rosbag2's stored tables topics, "
-                         'messages and message_definitions$')
+                         'messages, message_definitions and metadata$')
 
 
 @pytest.mark.parametrize('kind', ['VIRTUAL', 'STORED'])

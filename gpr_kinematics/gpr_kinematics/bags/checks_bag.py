@@ -13,7 +13,8 @@
   database's ``topics`` table where it holds a profile: an edit of the latched topics' durability would change what
   a replay latches), and the storage description: no file-level
   compression claimed (``compression_format`` and ``compression_mode`` empty: each file was read as it is, so a
-  claim of ``zstd`` is false);
+  claim of ``zstd`` is false); an SQLite3 database's own metadata against the files (:mod:`.checks_embedded`; a
+  single ``.db3`` file's against itself);
 - ``bag.schemas``: the message definition each file embeds (MCAP schemas; SQLite3's ``message_definitions``) is the
   package's definition of its type (:func:`.typestore.definition`), by text (comments and blank lines aside: an
   edited ``float64 residual`` -> ``float32 residual`` would make an independent decoder misread every message,
@@ -24,8 +25,8 @@
 """
 from __future__ import annotations
 
-from ..errors import GprError, brief
-from ..inputs import safe_yaml
+from ..errors import brief
+from .checks_embedded import embedded_problems, qos_data
 from .metadata import BAG_VERSION, FILE_DIGEST_PREFIX, METADATA_DIGEST_KEY, digest_line
 from .reader import Bag
 from .results import Check, bag_check, skipped
@@ -37,17 +38,6 @@ Problem = tuple[str, float, float, str]
 def _differs(problems: list[Problem], where: str, what: str, listed: object, read: object) -> None:
     if listed != read:
         problems.append((where, 1.0, 0.0, f'{what}: metadata.yaml says {listed!r}, the files hold {read!r}'))
-
-
-def _qos(value: object, topic: str) -> object:
-    """``offered_qos_profiles`` as data: YAML text (a file's, or metadata before version 9) read by the package's
-    bounded reader; empty text or none is no profile."""
-    if isinstance(value, str):
-        try:
-            value = safe_yaml.load_text(value, f'{topic} offered_qos_profiles') if value.strip() else []
-        except GprError as exc:
-            return f'unreadable: {exc}'
-    return [] if value is None else value
 
 
 def _topic_problems(bag: Bag, problems: list[Problem]) -> None:
@@ -63,8 +53,8 @@ def _topic_problems(bag: Bag, problems: list[Problem]) -> None:
                     _differs(problems, t.name, f'serialization_format in {f.name}', t.serialization_format,
                              f.formats[t.name])
                 if t.name in f.qos and t.offered_qos is not None:
-                    _differs(problems, t.name, f'offered_qos_profiles in {f.name}', _qos(t.offered_qos, t.name),
-                             _qos(f.qos[t.name], t.name))
+                    _differs(problems, t.name, f'offered_qos_profiles in {f.name}', qos_data(t.offered_qos, t.name),
+                             qos_data(f.qos[t.name], t.name))
 
 
 def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
@@ -102,7 +92,8 @@ def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
     for f in bag.storage_files:
         for name in sorted(set(f.types) - listed):
             problems.append((name, 1.0, 0.0, f'in {f.name} but not in metadata.yaml'))
-    return problems, 5 + 3 * len(meta.files) + 3 * len(meta.topics)
+    embedded, rows = embedded_problems(bag.storage_files, meta)
+    return problems + embedded, 5 + 3 * len(meta.files) + 3 * len(meta.topics) + rows
 
 
 def _normal(text: str) -> list[str]:
@@ -198,7 +189,10 @@ def bag_checks(bag: Bag, allow_missing_checksums: bool = False) -> list[Check]:
            bag_check('bag.type_hash', 'bag', hashes, len(topics), ''),
            bag_check('bag.schemas', 'bag', schemas, schemas_checked, ''),
            bag_check('bag.message_count', 'bag', counts, len(topics), 'messages')]
-    if bag.metadata is None:
+    embedded, rows = embedded_problems(bag.storage_files, None) if bag.metadata is None else ([], 0)
+    if bag.metadata is None and rows:   # a single SQLite3 file: its own metadata against itself
+        out.append(bag_check('bag.metadata', 'bag', embedded, rows, ''))
+    elif bag.metadata is None:
         out.append(skipped('bag.metadata', 'bag', '', 'a single storage file: no metadata.yaml'))
     else:
         problems, checked = _metadata_problems(bag)

@@ -1,10 +1,10 @@
 """Read one rosbag2 SQLite3 storage file (``sqlite3`` storage, schema versions 2-4) with every row checked.
 
-``PRAGMA quick_check`` first; the ``topics``, ``messages`` and ``message_definitions`` tables must be stored
-tables of stored columns (:func:`_stored_tables`: a view, a virtual table or a generated column computes what is
-read), one row per topic (:func:`_topics_table`) and per type (:func:`_definitions`), the messages counted before
-any is read. Every failure is a :class:`~gpr_kinematics.bags.errors.BagError` naming the file; the SHA-256 of the
-file is computed on the way.
+``PRAGMA quick_check`` first; the ``topics``, ``messages``, ``message_definitions`` and ``metadata`` (the database's
+own copy of the bag's metadata, kept for ``bag.metadata``) tables must be stored tables of stored columns
+(:func:`_stored_tables`: a view, a virtual table or a generated column computes what is read), one row per topic
+(:func:`_topics_table`) and per type (:func:`_definitions`), the messages counted before any is read. Every failure
+is a :class:`~gpr_kinematics.bags.errors.BagError` naming the file; the SHA-256 of the file is computed on the way.
 """
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from pathlib import Path
 from .errors import BagError
 from .fileio import check_sqlite_pages, read_head, sha256_file
 from .mcap_file import MAX_MESSAGES
+from .metadata import MAX_METADATA_BYTES
 from .storage_file import Contents, StorageFile
 from .typestore import normalize_type
 
@@ -48,6 +49,7 @@ def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -
             definitions = con.execute('SELECT id, topic_type, encoding, encoded_message_definition FROM '
                                       'message_definitions ORDER BY id').fetchall() \
                 if b'message_definitions' in tables else []
+            embedded = _embedded_metadata(con, path) if b'metadata' in tables else ()
             names, types, digests, formats, qos = _topics_table(rows, path)
             total = messages + con.execute('SELECT count(*) FROM messages').fetchone()[0]
             if total > MAX_MESSAGES:
@@ -78,7 +80,7 @@ def read_sqlite(path: Path, topics: set[str] | None = None, messages: int = 0) -
     defined = _definitions(definitions, path)
     schemas = {name: defined[ty] for name, ty in types.items() if ty in defined}
     info = StorageFile(path.name, size, sha, counts, types, digests, first, last, schemas=schemas, formats=formats,
-                       qos=qos)
+                       qos=qos, embedded=embedded)
     return Contents(info, times, data, messages=total)
 
 
@@ -115,6 +117,19 @@ def _topics_table(rows: list[tuple[object, ...]], path: Path) -> tuple[dict[int,
     return names, types, digests, formats, qos
 
 
+def _embedded_metadata(con: sqlite3.Connection, path: Path) -> tuple[tuple[int, object, str], ...]:
+    """The rows of the database's own ``metadata`` table (rosbag2's sqlite3 plugin stores the bag's metadata YAML there,
+    one row at each update, and reads the last back), at most :data:`~.metadata.MAX_METADATA_BYTES` in all: they are
+    checked against the bag (``bag.metadata``), not trusted."""
+    count, size = con.execute('SELECT count(*), coalesce(sum(length(CAST(metadata AS BLOB))), 0) FROM metadata'
+                              ).fetchone()
+    if size > MAX_METADATA_BYTES:
+        raise BagError(f'{path}: metadata table of {count} rows, {size} bytes; allowed: at most {MAX_METADATA_BYTES} '
+                       'bytes (rosbag2 stores a few kB at each update)')
+    rows = con.execute('SELECT id, metadata_version, metadata FROM metadata ORDER BY id').fetchall()
+    return tuple((rid, version, _text(text)) for rid, version, text in rows)
+
+
 def _definitions(rows: list[tuple[object, ...]], path: Path) -> dict[str, tuple[str, str]]:
     """The ``message_definitions`` table's rows (id, type, encoding, text) as (encoding, text) by type, one row per
     type: rosbag2 (and ``rosbags``) write one per type, and the reader checks one definition per type, so a second row
@@ -133,13 +148,13 @@ def _definitions(rows: list[tuple[object, ...]], path: Path) -> dict[str, tuple[
 
 
 def _stored_tables(con: sqlite3.Connection, path: Path) -> None:
-    """:class:`BagError` if ``topics``, ``messages`` or ``message_definitions`` is not a stored table or has a
-    column that is not stored: a view computes its rows (an endless recursive one never ends), a virtual table its
-    module's, and a generated column its expression at every read (a 20 kB file of four rows whose ``data`` was
+    """:class:`BagError` if ``topics``, ``messages``, ``message_definitions`` or ``metadata`` is not a stored table or
+    has a column that is not stored: a view computes its rows (an endless recursive one never ends), a virtual table
+    its module's, and a generated column its expression at every read (a 20 kB file of four rows whose ``data`` was
     ``zeroblob(500000000)`` took 2.5 GB, another 1 s of CPU per row), so only stored values are read."""
-    allowed = "allowed: rosbag2's stored tables topics, messages and message_definitions"
+    allowed = "allowed: rosbag2's stored tables topics, messages, message_definitions and metadata"
     for name, kind, sql in con.execute("SELECT name, type, sql FROM sqlite_master WHERE name IN ('topics', "
-                                       "'messages', 'message_definitions') ORDER BY name"):
+                                       "'messages', 'message_definitions', 'metadata') ORDER BY name"):
         if kind != b'table':
             raise BagError(f'{path}: {_text(name)} is a {_text(kind)}, not a table; {allowed}')
         if isinstance(sql, bytes) and sql.lstrip().upper().startswith(b'CREATE VIRTUAL'):

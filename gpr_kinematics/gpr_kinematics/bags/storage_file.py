@@ -29,6 +29,9 @@ class StorageFile:
     #: Per topic, the ``offered_qos_profiles`` YAML the file stores (MCAP: the channel's metadata; SQLite3: the
     #: ``topics`` table's column, where it holds a profile).
     qos: dict[str, str] = field(default_factory=dict)
+    #: SQLite3: the rows of the database's own ``metadata`` table (rosbag2's sqlite3 plugin stores the bag's metadata
+    #: there as YAML): (row id, ``metadata_version``, text), in row order.
+    embedded: tuple[tuple[int, object, str], ...] = ()
 
     @property
     def message_count(self) -> int:
