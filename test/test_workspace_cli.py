@@ -102,6 +102,9 @@ def test_overrides_grid_method_and_time_limit(capsys):
     assert code == 0
     data = json.loads(out)
     assert data['overrides'] == {'b': 0.25} and data['method'] == 'grid' and not data['certified']
+    code, out, _ = _run(capsys, 'upu3.yaml', '--delta', '0.02', '--set', 'b=0.25', '--method', 'grid')
+    assert out.startswith(f"upu3: {data['inner_boxes']} inner and {data['boundary_boxes']} boundary boxes "
+                          f"({data['outside_boxes']} outside), method grid (sampled, not certified), delta 0.02 m\n")
     code, out, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.0003', '--json', '--max-seconds', '0.2')
     assert code == 0
     assert json.loads(out)['interrupted'] and 'interrupted' in err

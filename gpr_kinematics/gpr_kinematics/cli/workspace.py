@@ -212,7 +212,8 @@ def run(args: argparse.Namespace) -> int:
         emit_json(report, file=str(args.file), overrides=json_object(overrides), **written)
         return status
     print(f'{name}: {result.inner_boxes} inner and {result.boundary_boxes} boundary boxes '
-          f'({result.outside_boxes} outside), method {result.method}, delta {delta:g} m')
+          f'({result.outside_boxes} outside), method {result.method}'
+          f'{"" if result.certified else " (sampled, not certified)"}, delta {delta:g} m')
     print(f'inner volume {result.inner_volume:.6g} {report.volume_units}, outer volume '
           f'{result.outer_volume:.6g} {report.volume_units}, {result.seconds:.2f} s'
           + (' (interrupted)' if result.interrupted else ''))
