@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import re
 
 import numpy as np
@@ -25,7 +26,7 @@ from gpr_kinematics.calibration.core_model import CoreModel, fitted_covariance, 
 from gpr_kinematics.calibration.frames import Transform, measuring_model
 from gpr_kinematics.calibration.identification import identify, weights
 from gpr_kinematics.calibration.measurements import Measurements
-from gpr_kinematics.calibration.quality import CHI2_QUANTILE
+from gpr_kinematics.calibration.quality import CHI2_QUANTILE, Gate
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.core.geometry_covariance import GeometryCovariance
@@ -168,6 +169,46 @@ def test_the_gate_with_the_gprs_error_still_finds_a_bad_row_and_a_wrong_model(fi
     check = next(c for c in total.gate.checks if c.name == 'chi_square')
     assert not check.passed and check.limit == share.point(CHI2_QUANTILE)
     assert "with the GPR's calibration covariance in the residuals" in check.detail
+    check = next(c for c in total.gate.checks if c.name == 'noise_chi_square')
+    assert not check.passed and check.value > 10.0 * check.limit and check.detail.startswith(
+        f"The residuals outside the {share.basis.shape[1]} direction(s) the GPR's calibration covariance occupies, "
+        'which no error of the GPR or its registration reaches, exceed the noise: reduced chi-square')
+    assert 'allowed: residuals within the declared noise (sigma columns, --sigma-position) there.' in check.detail
+
+
+def test_the_noise_chi_square_is_the_residual_outside_the_shares_directions(files):
+    """``noise_chi_square``: the residuals less their projection on the column space of ``P B Sigma_g^(1/2)`` built
+    densely (its singular values above 1e-6 of the largest: the share's ``r`` directions, one per excess eigenvalue),
+    over ``dof - r``, against the plain chi-square's 99.9 % point; the other checks' numbers as before. A share that
+    fills every degree of freedom leaves it not judged (passed, NaN, saying why; JSON null)."""
+    robot_file, with_block, plain_file, arm_csv, cov, cfg, meas = files
+    model = ArmModel(load_robot(geometry=cfg), meas)
+    res = identify(model, meas.points)
+    w = weights(meas.points, SIGMA, 1e-5)[0]
+    A, B = weighted_jacobians(model, model, res, cov, w)
+    share = ResidualShare.of(A, B, cov)
+    P = np.eye(A.shape[0]) - A @ np.linalg.pinv(A)
+    lam, V = np.linalg.eigh(cov.matrix)
+    U, s, _ = np.linalg.svd(P @ B @ (V * np.sqrt(np.clip(lam, 0.0, None))), full_matrices=False)
+    Q = U[:, s > 1e-6 * s[0]]
+    e = np.ravel(weighted_residuals(model, model, res, w))
+    r = Q.shape[1]
+    assert r == share.basis.shape[1] == share.excess.size and 0 < r < share.dof
+    gate = share.gate(res, weighted_residuals(model, model, res, w), meas.points.row_names)
+    names = [c.name for c in gate.checks]
+    assert names[:4] == ['minimum', 'chi_square', 'gpr_covariance', 'noise_chi_square']
+    check = gate.checks[3]
+    assert check.passed and check.judged and check.detail == ''
+    assert check.value == pytest.approx(float(np.sum((e - Q @ (Q.T @ e)) ** 2)) / (share.dof - r), rel=1e-9)
+    assert check.limit == pytest.approx(chi2_distribution.ppf(CHI2_QUANTILE, share.dof - r) / (share.dof - r))
+    assert check.value < gate.checks[1].value   # the share's directions carry the GPR's error
+    full = dataclasses.replace(share, dof=3, basis=np.eye(e.size)[:, :3])
+    alone = full.outside(weighted_residuals(model, model, res, w), '1')
+    assert alone.passed and not alone.judged and math.isnan(alone.value) and math.isnan(alone.limit)
+    assert alone.detail == ("noise chi square: the residuals have no degree of freedom outside the 3 direction(s) the "
+                            "GPR's calibration covariance occupies (3 in all): only the mixture's chi-square judges "
+                            'them; allowed: more rows.')
+    assert Gate((alone,)).as_dict()['checks'][0]['value'] is None
 
 
 @pytest.mark.parametrize('dof, within', [(1, 0.035), (2, 0.016), (10, 0.003), (229, 1e-4), (1000, 1e-5)])
@@ -333,6 +374,7 @@ def test_the_report_says_which_standard_errors_include_the_gprs_covariance(files
         pytest.approx(g['standard_error_without'], rel=1e-9)
     status, text, err = run(capsys, *argv, '--config', plain_file)
     assert status == 0 and 'gpr covariance:' not in text and "note: the arms' standard errors take" in text
+    assert 'noise chi square' not in text   # the plain chi-square is the whole law: no second check
 
 
 def test_the_arms_plot_draws_the_band_the_gate_judges_with(files, capsys, tmp_path, monkeypatch):
