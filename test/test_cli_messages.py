@@ -225,6 +225,10 @@ def test_an_integer_option_taken_prints_its_number(capsys):
     passes = whole(' 02')
     assert (passes, repr(passes), str(passes), f'{passes}', json.dumps(passes), passes + 1) == (2, '02', '2', '2', '2',
                                                                                               3)
+    import copy
+    import pickle
+    for copied in (pickle.loads(pickle.dumps(passes)), copy.deepcopy(passes)):   # a Dask worker's: int's reduction
+        assert (copied, repr(copied)) == (2, '02')                                # gave __new__ an int: AttributeError
     status, out, _ = run(capsys, 'sweep', '--passes', '02', '--json')
     assert status == 0 and json.loads(out)['passes'] == 2
 

@@ -79,6 +79,10 @@ class Whole(int):
     def __str__(self) -> str:
         return int.__repr__(self)
 
+    def __reduce__(self) -> tuple[type[Whole], tuple[str]]:
+        """Pickled (a Dask worker's copy) and copied as its text: int's own reduction gave ``__new__`` the int."""
+        return Whole, (self.typed,)
+
 
 def whole(text: str) -> int:
     """An argparse type: an integer of ASCII digits with an optional sign (Python's int also read ``1_000`` and the
