@@ -80,6 +80,7 @@ def _reject(constant: str) -> float:
     raise AssertionError(f'{constant} in the JSON output')
 
 
+@pytest.mark.slow
 def test_json_of_values_that_are_not_finite(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     src = write_bag(tmp_path / 'src', small_sweep(), dict(GPR_TOPICS))
     bag = rewritten(src, tmp_path / 'nan', _nan_q)

@@ -112,6 +112,7 @@ def _record_length_offsets(path: Path) -> list[int]:
     return out
 
 
+@pytest.mark.slow
 def test_huge_lengths_in_records_are_refused_within_the_memory_bound(tmp_path: Path, bags: dict[str, Path]) -> None:
     split = bags['split']
     cases = []
@@ -138,6 +139,7 @@ def _edit(info: dict[str, Any], field: tuple[Any, ...], delta: int) -> None:
 
 
 @pytest.mark.parametrize('name', ['reference', 'sqlite3'])
+@pytest.mark.slow
 def test_metadata_edits_fail_with_or_without_a_recomputed_digest(tmp_path: Path, bags: dict[str, Path],
                                                                   name: str) -> None:
     paths, expect = [], []

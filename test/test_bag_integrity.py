@@ -652,6 +652,7 @@ def test_the_own_metadata_of_rosbag2s_split_sqlite_files_passes_and_is_checked(t
         f"{names[2]}'s own metadata (its metadata table, row 2): message_count of /gpr/markers: it says 29, "
         'the files hold 30']
 
+@pytest.mark.slow
 def test_the_metadata_of_a_recording_of_hours_reads_back(tmp_path: Path) -> None:
     """13,000 segments (3.6 hours at the default flush_interval of 1 s) made 3.6 MB of metadata.yaml that the reader
     refused ('more than 200000 YAML values': the package's YAML bound, not the metadata's 16 MiB): the recorder kept

@@ -288,6 +288,7 @@ def test_the_messages_of_a_bag_are_bounded_in_number_over_its_files(tmp_path: Pa
             read_bag(bag, topics)
 
 
+@pytest.mark.slow
 def test_a_message_costs_some_250_bytes_so_the_bound_holds_the_memory(tmp_path: Path) -> None:
     """The bound on messages is a bound on memory: 30,000 messages of two bytes in one zstd chunk (a file of 1 byte
     a message) take at most 300 bytes each to read, so :data:`MAX_MESSAGES` of them stay within 2.4 GB."""
@@ -356,6 +357,7 @@ def _fifo_cases(tmp_path: Path, messages: list) -> list[tuple[Path, str]]:
     return cases
 
 
+@pytest.mark.slow
 def test_a_fifo_is_refused_without_blocking(tmp_path: Path, messages: list) -> None:
     """verify and the reader that replay_node uses: exit 2 / BagError naming the FIFO, within seconds."""
     for path, name in _fifo_cases(tmp_path, messages):

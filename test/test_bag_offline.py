@@ -175,6 +175,7 @@ def test_a_bag_without_a_platform_state_is_in_the_namespace_its_legacy_joint_sta
         assert bag.outside() == []
 
 
+@pytest.mark.slow
 def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     status, out, _ = run_cli('verify', str(REFERENCE), '--json', '--report', str(tmp_path / 'rep'), capsys=capsys)
     assert status == 0
@@ -193,6 +194,7 @@ def test_reference_bag_json_and_report(tmp_path: Path, capsys: pytest.CaptureFix
     assert json.loads((tmp_path / 'rep' / 'verify.json').read_text())['passed'] is True
 
 
+@pytest.mark.slow
 def test_a_report_into_an_earlier_reports_folder_leaves_no_figure_of_the_other_bag(tmp_path: Path,
                                                                                     capsys: pytest.CaptureFixture[str]
                                                                                     ) -> None:
@@ -689,6 +691,7 @@ time.sleep(60)
 
 
 @pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+@pytest.mark.slow
 def test_sigkill_of_a_writing_process_loses_nothing_older_than_the_flush_interval(tmp_path: Path,
                                                                                   storage: str) -> None:
     script = tmp_path / 'writer.py'

@@ -99,6 +99,7 @@ def test_plot_data_is_the_reports_numbers_of_the_same_samples(capsys, tmp_path, 
     assert all(dict(p.lines)['worst'] > p.samples[-1] for p in panels)
 
 
+@pytest.mark.slow
 def test_stdout_is_unchanged_by_plot_but_for_the_files_name(capsys, tmp_path):
     """Text and JSON, with and without --plot: the same output and status, plus the file's name (a line ``plot
     written to PATH``; the key ``plot_file``); the PNG written."""

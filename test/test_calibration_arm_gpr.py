@@ -221,6 +221,7 @@ def test_the_saddlepoints_points_of_one_chi_square(dof, within):
     assert abs(chi2_distribution.cdf(lower, dof) / 1e-3 - 1.0) < 4.0 * within
 
 
+@pytest.mark.slow
 def test_the_points_of_a_mixture_hold_their_rates():
     """The reviewer's case (eigenvalues 1 + (25, 18, 6, 2, 0.5, 0.1) beyond 223 ones, a fit of 229 degrees of
     freedom): Satterthwaite's point let 0.48 % of honest fits fail where 0.1 % should; the saddlepoint's points are

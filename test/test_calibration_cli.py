@@ -709,6 +709,7 @@ def test_sigma_columns_in_other_units_fail_the_gate(capsys, tmp_path):
     assert status == 0 and g['passed'] and g['value'] == pytest.approx(0.891, abs=5e-4) and g['limit'] < 0.7
 
 
+@pytest.mark.slow
 def test_one_kind_of_sigma_declared_is_checked(capsys, tmp_path):
     """A sigma_position column (0.003: 3 um written in mm, in a file in metres) and no sigma_angle column, or only
     --sigma-position 0.003 given: the gate's sigmas check was skipped (it ran only with both kinds declared), the fit
@@ -848,6 +849,7 @@ def test_too_few_rows_beyond_the_fitted_parameters_name_no_outlier(capsys, tmp_p
     assert (outlier_rows(16, 6), outlier_rows(17, 6), outlier_rows(18, 6), outlier_rows(11, 3)) == (6, 6, 7, 8)
 
 
+@pytest.mark.slow
 def test_a_column_unit_or_two_columns_swapped_are_hinted_in_the_refusal(capsys, tmp_path):
     """Positions in metres under ``x [mm]`` headers, or two of x, y, z swapped in the worked example's tracker file,
     were refused as 'not a measurement of this machine' with no word of the header. The refusal stays (exit 2, one

@@ -122,6 +122,7 @@ def test_the_calibrated_files_covariance_is_the_geometrys_with_what_the_datum_de
                             rel_tol=1e-6), n
 
 
+@pytest.mark.slow
 def test_a_precise_tracker_gives_the_transform_to_10_um_and_20_urad(setting):
     cfg, core, Q, true_model, inner, theta = setting
     meas = synthetic_measurements(true_model, theta, np.tile(Q, (10, 1)), 0.5e-6, 2.5e-6, seed=5)
@@ -284,6 +285,7 @@ def test_derived_datum_parameters_of_held_ones_are_held_not_exact(capsys, tmp_pa
     assert '(held: it follows held parameters)' in text and '+- 0 um' not in text
 
 
+@pytest.mark.slow
 def test_derived_datum_parameters_carry_the_bias_of_the_held_ones(capsys, tmp_path, setting):
     """--fit-target position, the example table: the datum's derived parameters had no bias from the held ones (the
     joints' places that follow the held joints only read as held, as if exact). Independent checks: those against

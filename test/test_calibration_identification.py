@@ -681,6 +681,7 @@ def test_a_parameter_the_poses_see_worse_at_the_estimate_is_named(core_case):
                      r'noise; leave them out of --free', warning), warning
 
 
+@pytest.mark.slow
 def test_outliers_without_declared_noise_fail_right_fits_at_the_stated_rate():
     """Without declared noise the outliers check measured the studentized residuals in their kind's robust scale (the
     MAD's, estimated from the same residuals) against the normal's Bonferroni point (4.6 for 40 poses): 8 of 1000

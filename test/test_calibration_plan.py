@@ -106,6 +106,7 @@ def test_index_scales_with_the_noise():
     assert b.index == pytest.approx(a.index / 2, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_predicted_standard_errors_match_repeated_identifications():
     """On a machine near its nominal geometry (here kappa = 3: a nominal at the radial end, kappa 1000, puts the
     anisotropy's estimates against its bound 1, which no covariance describes)."""

@@ -125,6 +125,7 @@ def test_points_with_declared_noise_are_drawn_on_a_log_scale():
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_the_cli_writes_a_png_and_prints_what_it_prints_without(capsys, tmp_path):
     """With --plot the PNG is written (its magic bytes) and stdout and the status are those without it, text and
     JSON, plus the file's name (a line ``plot written to PATH``; the key ``plot_file``); a fit that fails its gate

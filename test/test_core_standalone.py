@@ -71,6 +71,7 @@ def test_missing_optional_package_is_one_line_and_status_2(core_path, tmp_path, 
     assert f"optional package '{package}'" in res.stderr and f'gpr_kinematics[{extra}]' in res.stderr, res.stderr
 
 
+@pytest.mark.slow
 def test_help_lists_every_subcommand_and_marks_the_unavailable_ones(core_path):
     res = gpr(core_path, '--help')
     assert res.returncode == 0, res.stderr

@@ -283,6 +283,7 @@ def test_an_error_names_the_whole_command(capsys):
     (['--namespace', '/r3', '--joint-states', '~/js', '--action', '/arm/follow'], '/r3/gpr_program_send/js',
      '/arm/follow', ('--joint-states and --namespace', '--action')),
 ])
+@pytest.mark.slow
 def test_send_names_the_full_name_it_waited_on_and_how_to_change_it(capsys, monkeypatch, options, topic, action, where):
     """`gpr program send --namespace r3` without a server said 'no FollowJointTrajectory server on
     joint_trajectory_controller/follow_joint_trajectory within 10 s' (no joint_states: 'no joint_states with the
@@ -380,6 +381,7 @@ def test_program_export_trajectory(capsys, tmp_path):
     assert [p['positions'] for p in shifted] == [p['positions'] for p in traj['points']]
 
 
+@pytest.mark.slow
 def test_a_trajectory_the_controller_refuses_is_neither_written_nor_sent(capsys, tmp_path):
     """At 5 Hz the cubic between the cell program's points overshoots rod_1's velocity limit by 1.05 % (the controller
     allows 1 %): the file was written and robot_simulator_node refused it. It is refused before anything is written,
@@ -419,6 +421,7 @@ def test_program_send_refuses_what_the_controller_would_before_it_looks_for_ros(
                           '753 '), err
 
 
+@pytest.mark.slow
 def test_a_trajectory_whose_spline_leaves_the_checked_program_is_refused_in_its_cell_and_warned_without(capsys,
                                                                                                         tmp_path):
     """At 0.3 Hz the cell program's 19 points pass the controller's checks, but their spline put arm2's blade 8.7 mm
@@ -457,6 +460,7 @@ def _moved_cell_program(tmp_path):
 
 
 @pytest.mark.parametrize('rate', ['1000', '0.3'])
+@pytest.mark.slow
 def test_a_program_unsafe_in_its_cell_is_named_so_not_its_rate(capsys, tmp_path, rate):
     """A program whose own motion collides was refused for --trajectory as 'the spline ... leaves the checked
     program' at every rate, with the advice of a higher --rate and a bound of -582.560 mm: the program is named, with
@@ -493,6 +497,7 @@ def _variant(tmp_path, robot_edit=None, gpr_line='', cell=True):
     return program
 
 
+@pytest.mark.slow
 def test_a_program_whose_wafer_slips_is_not_written_or_sent_as_a_trajectory(capsys, tmp_path):
     """The example cell program on blades of friction 0.1 (0.3 shipped): gpr program check finds it NOT safe (the
     wafer slips, ratio 2.259 = 3 x 0.753), yet --trajectory wrote it and send sent it (5,960 points) without a word:
@@ -514,6 +519,7 @@ def test_a_program_whose_wafer_slips_is_not_written_or_sent_as_a_trajectory(caps
         assert (status, out, err) == (1, '', f'gpr program send: error: {why}')
 
 
+@pytest.mark.slow
 def test_a_trajectory_whose_spline_makes_the_wafer_slip_is_refused_at_its_rate(capsys, tmp_path):
     """Blades of friction 0.2285: the example cell program's slip ratio is 0.989 (safe), but at 10 Hz the cubic
     between the trajectory's points overshoots its accelerations and the wafer slips (1.005 at 54.70 s; the trial
@@ -619,6 +625,7 @@ def test_a_cell_program_exports_without_python_fcl_with_a_warning(capsys, tmp_pa
                    "'fcl' (pip install 'gpr_kinematics[safety]')\n"), err
 
 
+@pytest.mark.slow
 def test_a_trajectory_longer_than_the_simulators_samples_is_exported(capsys, tmp_path):
     """A 2,500 s program was refused for --trajectory at every --rate ('250001 samples at 100 Hz', the simulator's
     count at its default rate, with the hint of a higher --rate that could not help): the trajectory is checked at
@@ -663,6 +670,7 @@ def test_robot_subcommands_describe_themselves(capsys, command, says):
     text = ' '.join(out.split())
     assert code == 0 and says in text and '(docs/robot.md)' in text
 
+@pytest.mark.slow
 def test_a_file_the_program_names_that_is_missing_is_refused_naming_the_program(capsys, tmp_path):
     """A program copied away from its robot and cell was refused as `cannot read robot file
     '../robots/example_robot.yaml'`: neither the program that named it nor the folder it is relative to was said."""

@@ -87,6 +87,7 @@ def test_cubic_from_rest_to_a_first_point():
     np.testing.assert_allclose(vel[:, 0], 0.4 * (6 * s - 6 * s ** 2) / T, rtol=0, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_timing_velocities_are_the_derivative_of_the_sampled_program():
     plan = _plan()
     t = np.linspace(0.0, plan.timing.total, 4001)[1:-1]

@@ -280,6 +280,7 @@ def test_a_cell_in_another_frame_than_the_robots_world_is_refused(tmp_path):
         load_cell(tmp_path / 'none.yaml').in_frame('fab')
 
 
+@pytest.mark.slow
 def test_program_export_does_not_replace_the_cell_its_program_names(tmp_path):
     """Export does not read the cell, but the program names it: writing the trajectory over it left a program that
     no longer checks (exit 0 before)."""

@@ -56,6 +56,7 @@ def cell_with_box(tmp_path, centre_local_mm, size_mm, name='box'):
     return path
 
 
+@pytest.mark.slow
 def test_the_cell_example_is_safe(tmp_path):
     res = gpr('program', 'check', str(PROGRAM), '--json', '--plot', str(tmp_path / 'check.png'), cwd=tmp_path)
     assert res.returncode == 0, res.stderr
@@ -94,6 +95,7 @@ def test_the_cell_example_is_safe(tmp_path):
     assert res.returncode == 1 and 'UNSAFE' in res.stdout and 'NOT safe' in res.stdout, res.stdout
 
 
+@pytest.mark.slow
 def test_the_collision_table_says_which_time_is_which(tmp_path):
     """A margin of 7 mm makes the cell example unsafe: arm2_link3 first comes closer than 7 mm to pm1's front at
     16.09 s, while its least distance, 6.09 mm, is reached at 17.93 s. The table gives both times in their own
@@ -608,6 +610,7 @@ def test_the_least_clearance_is_within_the_tolerance_and_the_librarys_slack_of_t
     assert 0.0 < truth - least['distance'] <= TOLERANCE + LIBRARY_SLACK
 
 
+@pytest.mark.slow
 def test_the_instants_of_a_hold_are_its_ends():
     """The slip check sampled the whole program at 200 Hz and the clearance search at 1 Hz, holds included: the cell
     program with dwell 1000 s (14,053 s) took 23 s and 2.9 GB, with dwell 1e6 s more than 5 minutes and all the
@@ -656,6 +659,7 @@ def test_a_move_of_a_million_seconds_is_sampled_within_bounds():
     assert BASE_MOST <= search.base.shape[0] <= BASE_MOST + 4    # 100 s apart on the move
 
 
+@pytest.mark.slow
 def test_a_slow_move_leaves_the_fast_ones_their_slip_instants(tmp_path):
     """The slip instants were bounded with one rate for every move, MAX_SAMPLES over the moves' total: a move of 1e5
     s appended after the wafer is placed sampled arm1's swing with it (speeds and accelerations 1.947 times, jerks 10
@@ -972,6 +976,7 @@ def test_a_check_of_something_else_than_a_plan_and_a_cell_is_named():
         check_program({'x': 1}, None)
 
 
+@pytest.mark.slow
 def test_samples_beyond_the_imperfection_budget_are_a_finding_verify_agrees_with(tmp_path):
     """The review's program on a compliant geometry of tilted rods read 'safe' (exit 0) while its recording failed
     gpr verify's state.imperfection_budget at 267 of 606 samples. The check judges the same quantity at the samples

@@ -58,6 +58,7 @@ def dense_crossing(bodies, margin, until):
     (0.007, ('arm2_link3', 'pm1/front_bottom'), 16.1139),
     (0.02, ('arm1_blade', 'arm2_link1'), 36.8097),
 ], ids=['cell_example_7mm', 'least_distance_far_from_the_crossing'])
+@pytest.mark.slow
 def test_first_below_is_the_crossing_to_within_the_resolution(monkeypatch, margin, bodies, search):
     report, clear, _ = check_program(PLAN, CELL, margin)
     (c,) = [c for c in report.collisions if c.bodies == bodies]
@@ -81,6 +82,7 @@ def test_first_below_is_the_crossing_to_within_the_resolution(monkeypatch, margi
     assert old.pairs == report.pairs and old.min_clearance == report.min_clearance
 
 
+@pytest.mark.slow
 def test_the_json_collision_time_is_the_crossing():
     """``--json``'s collision ``time`` is the refined instant (16.0944 s), its step, station and label those of
     the crossing; the text table prints it to the millisecond."""

@@ -104,6 +104,7 @@ def _placed(disc: Body, kind: str, size, R, direction, distance: float) -> Body:
 
 
 @pytest.mark.parametrize('kind', ['box', 'cylinder'])
+@pytest.mark.slow
 def test_the_kept_distance_is_never_above_an_independent_solvers(kind):
     rng = np.random.default_rng(7 if kind == 'box' else 8)
     worst_fcl = 0.0

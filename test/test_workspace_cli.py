@@ -232,6 +232,7 @@ def test_the_text_summary_is_headed_by_the_file_name_as_the_plots_are(tmp_path, 
     assert out.startswith('my_shell: ')
 
 
+@pytest.mark.slow
 def test_the_joint_working_area_through_the_cli(tmp_path, capsys):
     code, out, err = _run(capsys, 'joint_working_area.yaml', '--delta', '16', '--mm', '--plot', str(tmp_path),
                           '--scheduler', 'none')

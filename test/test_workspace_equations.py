@@ -77,6 +77,7 @@ def test_dextar_6d_reachable_points_lie_in_the_outer_boxes(dextar):
     assert np.all(contains_points(np.concatenate([res.inner, res.boundary]), P))
 
 
+@pytest.mark.slow
 def test_a_joint_limited_arm_brackets_its_annulus():
     """x = l1 cos q1 + l2 cos(q1 + q2) ...: with q1 free and q2 in [0, pi/2] the arm reaches the annulus
     sqrt(l1^2 + l2^2) <= r <= l1 + l2, of area 2 pi l1 l2."""

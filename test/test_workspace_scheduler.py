@@ -37,6 +37,7 @@ def _sorted(boxes):
     return flat[np.lexsort(flat.T[::-1])]
 
 
+@pytest.mark.slow
 def test_the_parts_change_the_order_of_the_boxes_not_the_boxes():
     model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
     a = approximate(model, 0.004, chunk_size=1024, parts=1)
@@ -104,6 +105,7 @@ def test_an_unreachable_scheduler_is_refused_before_any_work(monkeypatch):
         assert time.perf_counter() - t0 < 5.0 and not calls
 
 
+@pytest.mark.slow
 def test_a_port_that_is_no_dask_scheduler_is_reported(monkeypatch):
     import socket
     s = socket.socket()

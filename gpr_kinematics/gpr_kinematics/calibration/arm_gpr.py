@@ -139,12 +139,12 @@ class ResidualShare:
         PB = B - Qa @ (Qa.T @ B)                         # P B, without the (3N, 3N) projection
         lam, V = np.linalg.eigh(0.5 * (cov.matrix + cov.matrix.T))
         G = PB @ (V * np.sqrt(np.clip(lam, 0.0, None)))   # C = P + G G^T (Sigma_g = V lam V^T, PSD within rounding)
-        mu = np.linalg.eigvalsh(G.T @ G)
+        U, s = np.linalg.svd(G, full_matrices=False)[:2]
+        mu = s[::-1] ** 2                                # G^T G's eigenvalues, ascending
         gpr = np.sum(G * G, axis=1)
         variance = 1.0 - np.sum(Qa * Qa, axis=1) + gpr
         dof = A.shape[0] - A.shape[1]
         excess = mu[mu > SHARE_RANK ** 2 * max(float(mu.max(initial=0.0)), 1.0)][-dof:] if dof > 0 else mu[:0]
-        U, s = np.linalg.svd(G, full_matrices=False)[:2]
         basis = U[:, s > SHARE_RANK * max(float(s.max(initial=0.0)), 1.0)][:, :max(dof, 0)]
         return cls(dof, excess, variance.reshape(-1, 3), gpr.reshape(-1, 3), basis)
 
