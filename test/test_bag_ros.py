@@ -157,6 +157,7 @@ def test_recorded_sweep_verifies_and_counts_match(tmp_path: Path, storage: str, 
 
 
 
+@pytest.mark.slow
 def test_a_sweep_recorded_beside_the_robot_simulator_verifies(tmp_path: Path) -> None:
     """The documented offline loop (offline_loop.launch.py) records beside robot_simulator_node, which holds the
     robot on joint_states (velocities included) before, during and after the sweep: its bag failed `gpr verify`
@@ -179,6 +180,7 @@ def test_a_sweep_recorded_beside_the_robot_simulator_verifies(tmp_path: Path) ->
     result = verify_bag(b)
     assert result.passed, [f.line() for f in result.failures]
 
+@pytest.mark.slow
 def test_a_stop_beside_a_live_stream_records_nothing_after_it(tmp_path: Path) -> None:
     """SIGINT while the simulator's held state flows at 20 Hz: the recorder takes what DDS had delivered and stops.
     It waited for 0.2 s without a message, which a live stream never leaves: every stop beside the simulator recorded
@@ -288,6 +290,7 @@ def test_sigkill_loses_nothing_older_than_the_flush_interval(tmp_path: Path) -> 
     assert n == len(g_state)
 
 
+@pytest.mark.slow
 def test_recorder_refuses_bad_output_and_unknown_types(tmp_path: Path) -> None:
     (tmp_path / 'exists').mkdir()
     (tmp_path / 'exists' / 'keep.txt').write_text('mine')
@@ -316,6 +319,7 @@ def test_recorder_refuses_bad_output_and_unknown_types(tmp_path: Path) -> None:
     assert not Path('/proc/gpr_bag_test').exists()
 
 
+@pytest.mark.slow
 def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) -> None:
     ref = read_bag(REFERENCE)
     rate = 4.0
@@ -339,6 +343,7 @@ def test_replay_into_a_fresh_recorder_gives_the_same_messages(tmp_path: Path) ->
     assert verify_bag(again).passed
 
 
+@pytest.mark.slow
 def test_a_recorder_behind_its_stream_takes_it_all_at_a_stop(tmp_path: Path) -> None:
     """A SQLite3 recorder closing a segment every 100 kB falls behind the replay, at ten times its rate, of a robot
     program recorded at 30 Hz; stopped 0.3 s after the replay ended (every message acknowledged), it lost the
@@ -451,6 +456,7 @@ def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
     assert got == (ref * (len(got) // len(ref) + 1))[:len(got)]
 
 
+@pytest.mark.slow
 def test_a_looped_one_message_bag_repeats_at_ten_hertz_and_the_node_serves(tmp_path: Path) -> None:
     """A bag of one message looped at about 1,200 messages/s and its parameter services went unanswered: passes
     are one mean interval apart (0.1 s when the messages share one instant), and callbacks are served while due
@@ -480,6 +486,7 @@ def test_a_looped_one_message_bag_repeats_at_ten_hertz_and_the_node_serves(tmp_p
         replay.stop()
 
 
+@pytest.mark.slow
 def test_the_recorder_stops_cleanly_at_every_moment(tmp_path: Path) -> None:
     """A stop while it waited for a topic's type was ignored for the whole discovery_timeout (up to an hour): it ends
     at once, status 0, no folder. A second Ctrl-C 0.2 s after the first ended a recorder that had closed its bag
@@ -511,6 +518,7 @@ def test_the_recorder_stops_cleanly_at_every_moment(tmp_path: Path) -> None:
         assert (tmp_path / f'twice{int(second)}' / 'metadata.yaml').is_file()
 
 
+@pytest.mark.slow
 def test_a_replay_that_falls_behind_its_bag_says_so(tmp_path: Path) -> None:
     """A dense bag replayed at rate 1 took 2.7 times its span without a word (and served callbacks at every message,
     which cost most of it): 150,000 messages within 1.5 ms no machine publishes in time (0.3 s here); the replay
@@ -569,6 +577,7 @@ def test_a_replay_of_a_bag_that_no_longer_matches_its_checksums_warns_once(tmp_p
         assert 'finished: published /chatter 5' in out, out
 
 
+@pytest.mark.slow
 def test_a_replay_waits_for_its_state_publishers_joint_states_only(tmp_path: Path) -> None:
     """The replay launch's state publisher subscribes to joint_states only: waiting for every topic held the bag 10 s,
     not waiting lost its first 2 s of /tf. With ``wait_topic`` the replay starts once that one topic is subscribed,
@@ -605,6 +614,7 @@ def test_a_replay_waits_for_its_state_publishers_joint_states_only(tmp_path: Pat
         replay.stop()
 
 
+@pytest.mark.slow
 def test_a_replay_in_a_namespace_names_the_remap_that_moves_its_legacy_joint_states() -> None:
     """In /r9 the warning suggested ``-r r9/gpr/joint_states:=joint_states``, which matches nothing (a rule is taken
     in the node's namespace), and with the right rule given it still warned, naming /r9/joint_states as the legacy
@@ -634,6 +644,7 @@ def test_a_replay_in_a_namespace_names_the_remap_that_moves_its_legacy_joint_sta
 
 
 @pytest.mark.parametrize('recorded_in', ['', '/r1'])
+@pytest.mark.slow
 def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path, recorded_in: str) -> None:
     """replay.launch.py's namespace (``-r __ns:=/r2``) is where its state publisher and RViz read: the suite's topics
     of a bag recorded at the root or in another namespace are published in the replay's namespace, another node's
@@ -682,6 +693,7 @@ def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path
 
 
 @pytest.mark.parametrize('recorder_first', [True, False], ids=['recorder-first', 'recorder-later'])
+@pytest.mark.slow
 def test_latched_geometry_is_recorded(tmp_path: Path, recorder_first: bool) -> None:
     """gpr/geometry is published once, transient local: a recorder started before the trajectory node and one
     started after it both record the one sample, the YAML of the node's configuration."""

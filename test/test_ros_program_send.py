@@ -139,6 +139,7 @@ def _send_beside(name: str, names: list[str], positions: list[float], descriptio
     return proc.returncode, out, err
 
 
+@pytest.mark.slow
 def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(ros_environment):
     """Joint states of another robot (only the rods here) came, and send said no joint states came at all."""
     joints = ControllerJoints.of(ROBOT)
@@ -159,6 +160,7 @@ def test_joint_states_without_the_programs_joints_are_named_not_taken_for_none(r
                    '--joint-states and --namespace)\n')
 
 
+@pytest.mark.slow
 def test_a_program_for_another_robot_than_the_one_there_is_not_sent(ros_environment):
     """Robot 2's program (its base 3 m away) ran on robot 1 without a word: their joints are named alike. The robot
     there is read from its robot_description (the state publisher's URDF) and another robot's refused, status 1."""
@@ -175,6 +177,7 @@ def test_a_program_for_another_robot_than_the_one_there_is_not_sent(ros_environm
     assert status == 1 and err.count('\n') == 1 and len(err) < 400 and '(3000 characters)' in err, err
 
 
+@pytest.mark.slow
 def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environment):
     """Joint states come but no FollowJointTrajectory server answers: one line naming the action as resolved in the
     namespace (it said 'on joint_trajectory_controller/follow_joint_trajectory'), the wait and the options."""
@@ -228,6 +231,7 @@ def test_a_robot_reporting_joints_outside_their_limits_exits_1(ros_environment):
         'outside its limits [0, 0.508] m; allowed: a robot within its limits' in err, err
 
 
+@pytest.mark.slow
 def test_a_lagging_robot_prints_the_end_once_then_by_progress(ros_environment, tmp_path):
     """With a lag the simulator's feedback goes on while the joints settle after the last point: `--progress 100`
     printed a line per 10 ms sample from the end on (about 50); now the first feedback's and the end's, and the

@@ -775,6 +775,7 @@ def test_a_goal_running_when_the_simulator_stops_gets_its_result(ros_environment
         proc.stop()
 
 
+@pytest.mark.slow
 def test_under_a_stepped_simulated_clock_a_stream_silences_the_simulator_and_a_clock_set_back_too(ros_environment):
     """use_sim_time with /clock in 0.1 s steps (a simulator at 10 Hz) and another node streaming rods at 100 Hz, every
     sample of a step stamped within it: the simulator dropped every sample not newer than its own held state (stamped

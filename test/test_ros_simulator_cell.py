@@ -101,6 +101,7 @@ def test_a_bad_cell_or_wafer_arm_stops_the_node_with_one_line(ros_environment, v
     assert_one_error_line(proc.output(), status, 2, words)
 
 
+@pytest.mark.slow
 def test_another_publishers_state_in_the_box_or_through_it_is_ignored_with_a_warning(sim_cell):
     """joint_states of another publisher put arm1's shoulder at 1.2 rad (through the box) and then at 0.6 rad (the
     blade 20 mm inside it): both were taken and held, and every goal after was refused '... -20.001 mm apart at

@@ -108,6 +108,7 @@ ARM_LINKS = {f'{a.name}_link{k + 1}' for a in ROBOT.arms for k in range(len(a.jo
 MOVING = {'gpr_platform', 'gpr_platform_nominal', 'gpr_rod_1', 'gpr_rod_2', 'gpr_rod_3'} | ARM_LINKS
 
 
+@pytest.mark.slow
 def test_one_tf_message_per_sample_equal_to_forward_kinematics(run):
     core, tf, _, states, _, _ = run
     samples, _ = _by_stamp(tf, states)
@@ -280,6 +281,7 @@ def test_tf_chain_world_to_wafer_equals_the_robot_core_for_every_sample(robot_ru
     np.testing.assert_allclose([list(rs.joints) for rs in robot_states], expected.joints, rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_process_cell_published_latched_as_markers(ros_environment, tmp_path):
     """With ``cell_file``, gpr/cell is latched: a late subscriber gets one MarkerArray, a marker per obstacle at its
     pose and size in the cell's frame; a bad cell file stops the node with one line and status 2."""

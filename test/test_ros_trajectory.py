@@ -277,6 +277,7 @@ def test_looping_node_exits_0_on_signal(ros_environment, sig):
             proc.stop()
 
 
+@pytest.mark.slow
 def test_under_a_simulated_clock_the_samples_stamps_increase(ros_environment):
     """use_sim_time with /clock at 20 Hz and the stream at 200 Hz: a tick catches up the samples due by the wall
     clock while /clock stands still, and they shared its stamp (518 of 755 intervals zero: stream.stamps failed in
@@ -341,6 +342,7 @@ def _simulated_clock(ns: str, step_ns: int, every: float) -> Iterator[tuple[Any,
             proc.stop()
 
 
+@pytest.mark.slow
 def test_a_simulated_clock_slower_than_real_time_sets_the_streams_pace(ros_environment):
     """use_sim_time with /clock advancing 1 ms every 20 ms of wall time (a simulation at 1/20 of real time): the
     samples due were counted on the wall clock, so every tick caught up CATCH_UP samples and the stream ran five times

@@ -79,6 +79,7 @@ def test_program_runs_to_the_end_with_ordered_feedback(client, node):
     assert node.alive()
 
 
+@pytest.mark.slow
 def test_program_file_goal(client):
     path = config_path('programs/example_stations.yaml')
     result = client.run_program(program_file=str(path), timeout=60)
@@ -268,6 +269,7 @@ def test_the_shipped_robot_programs_run_with_the_files_they_name(client):
         assert re.search(r'cancelled before sample \d+ of \d+', response.result.message), response.result.message
 
 
+@pytest.mark.slow
 def test_a_relative_program_file_is_found_in_the_allowed_folders(client, allowed):
     assert client.run_program(program_file='short.yaml', timeout=30).success
     result = client.run_program(program_file='example_stations.yaml', timeout=60)   # the package's folder

@@ -172,6 +172,7 @@ def test_a_start_up_stream_stopped_by_a_signal_says_where(ros_environment, sig):
         proc.stop()
 
 
+@pytest.mark.slow
 def test_after_a_simulated_clock_set_back_the_stream_keeps_its_rate(ros_environment):
     """/clock in 100 ms steps at 10 Hz, set back from 1000 s to 10 s: the stream's pace kept its start at 1000 s, so
     it fell to one sample per clock step (10 Hz for 200 Hz). It now starts its pace again at the new time: every step
