@@ -1,7 +1,8 @@
 """Whether measurements are of this machine at all: a measured pose implausibly far from the nominal model's (wrong
 units, another frame, a wrong row) is refused before any fit, with the likely cause named (millimetres read as
 metres, or metres under a ``# units: mm`` line, tested by rescaling the file and fitting its frames again; else,
-where the positions fit far better read another way, a column's unit or two columns swapped: :func:`other_reading`).
+where the measurements fit far better read another way, a column's unit or two columns swapped, positions or rod
+lengths: :func:`other_reading`).
 """
 from __future__ import annotations
 
@@ -122,34 +123,53 @@ def plausible_start(model: PoseModel, meas: Measurements, theta0: Array, frame: 
 
 
 def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
-    """A hint ('' for none) where the positions fit the model at ``theta0`` (its frames fitted again) far better
-    read another way (:data:`BETTER_READING`): 1000 times or a thousandth of their values (a column's unit: ``x [mm]``
-    over metres), or two of the columns x, y, z swapped; the best such reading, with both RMS errors."""
+    """A hint ('' for none) where the measurements fit the model at ``theta0`` (its frames fitted again) far better
+    read another way (:data:`BETTER_READING`): the positions 1000 times or a thousandth of their values (a column's
+    unit: ``x [mm]`` over metres) or two of the columns x, y, z swapped, judged by the RMS position error; or two of
+    the rod lengths q1, q2, q3 swapped, judged by the RMS angle error of measured poses (a swap tilts the platform
+    the other way; its origin hardly moves) or the RMS position error of points; the best such reading."""
     refine = getattr(model, 'registered', None)
+    poses = meas.quaternion is not None
 
-    def rms(position: Array) -> tuple[float, bool]:
+    def rms(position: Array, q: Array) -> tuple[float, float, bool]:
         try:   # a reading beyond the coordinates' bound is refused (InputError) as a file of it would be
-            m = replace(meas, position=position)
+            m = replace(meas, position=position, q=q)
             e = measured_errors(model, m, refine(m) if callable(refine) else theta0)
         except GprError:
-            return math.inf, False
-        return float(np.sqrt(np.mean(np.sum(e[:, :3] ** 2, axis=1)))), not implausible(e)[0].size
+            return math.inf, math.inf, False
+        return (float(np.sqrt(np.mean(np.sum(e[:, :3] ** 2, axis=1)))),
+                float(np.sqrt(np.mean(np.sum(e[:, 3:] ** 2, axis=1)))) if poses else math.inf,
+                not implausible(e)[0].size)
 
-    p = meas.position
-    read = rms(p)[0]
-    readings = [(f'if their values were in {unit} (x, y, z {factor:g} times what was read)', p * factor)
-                for unit, factor in (('metres', 1e3), ('millimetres', 1e-3))]
-    readings += [(f'with columns {"xyz"[a]} and {"xyz"[b]} swapped', p[:, [b if c == a else a if c == b else c
-                                                                            for c in range(3)]])
-                 for a, b in ((0, 1), (0, 2), (1, 2))]
-    found = [(r, words) for words, q in readings for r, ok in [rms(q)] if ok and r <= BETTER_READING * read]
+    def swapped(a: int, b: int) -> list[int]:
+        return [b if c == a else a if c == b else c for c in range(3)]
+
+    p, q = meas.position, meas.q
+    pairs = ((0, 1), (0, 2), (1, 2))
+    units = (('metres', 1e3), ('millimetres', 1e-3))
+    readings = [(f'the positions fit this machine if their values were in {unit} (x, y, z {factor:g} times what was '
+                 'read)', p * factor, q, 0) for unit, factor in units]
+    readings += [(f'the positions fit this machine with columns {"xyz"[a]} and {"xyz"[b]} swapped',
+                  p[:, swapped(a, b)], q, 0) for a, b in pairs]
+    readings += [(f'the {"poses" if poses else "points"} fit this machine with columns q{a + 1} and q{b + 1} swapped',
+                  p, q[:, swapped(a, b)], int(poses)) for a, b in pairs]
+    read = rms(p, q)
+    found = [(r[kind] / max(read[kind], 1e-300), r[kind], kind, words)
+             for words, pr, qr, kind in readings for r in [rms(pr, qr)]
+             if r[2] and r[kind] <= BETTER_READING * read[kind]]
     if not found:
         return ''
-    r, words = min(found)
+    _, r, kind, words = min(found)
     check = 'their columns\' unit (the header\'s, or the "# units:" line)' if 'times' in words else \
         'the header\'s column names'
-    return f'the positions fit this machine {words}: RMS {_length(r)} from the nominal model\'s against ' \
-        f'{_length(read)} as read; check {check}'
+    error = f'RMS angle {_angle(r)}' if kind else f'RMS {_length(r)}'
+    return f'{words}: {error} from the nominal model\'s against {(_angle if kind else _length)(read[kind])} as ' \
+        f'read; check {check}'
+
+
+def _angle(v: float) -> str:
+    """``882 urad``, ``12 mrad`` [rad in]."""
+    return f'{1e6 * v:.3g} urad' if v < 1e-3 else f'{1e3 * v:.3g} mrad'
 
 
 def _length(v: float) -> str:
