@@ -315,8 +315,8 @@ def test_metres_under_a_millimetre_line_with_a_low_first_row_get_the_hint_from_t
 
 def test_a_rescaled_file_that_is_refused_gives_no_units_hint():
     """Whether the whole file rescaled fits is False where the rescaled file is refused (a GprError): a row at 5e5 m
-    under "# units: mm" is beyond the +-1e6 bound a thousand times over; the cause named is another frame, not
-    metres."""
+    under "# units: mm" is beyond the +-1e6 bound a thousand times over; the causes named are a wrong row (the others
+    fit) and another frame, not metres."""
     from gpr_kinematics.calibration.plausibility import ImplausiblePoseError, plausible_start
 
     cfg = load_config()
@@ -328,7 +328,8 @@ def test_a_rescaled_file_that_is_refused_gives_no_units_hint():
     huge = Measurements('huge.csv', meas.q, position, meas.quaternion, None, None, tuple(range(4, 4 + len(Q))),
                         units=('mm', 'rad'))
     with pytest.raises(ImplausiblePoseError, match=r'^huge\.csv line 4: the measured pose is 5e\+05 m and .* rad from '
-                       r'the nominal .* in gpr_base in millimetres, as the file declares \(another frame than '
+                       r'the nominal .* in gpr_base in millimetres, as the file declares \(the only row so far off: '
+                       r'a wrong or mismeasured row\? remove it or measure it again; else another frame than '
                        r'gpr_base; a tracker') as err, np.errstate(over='ignore', invalid='ignore'):
         plausible_start(core, huge, core.parameters.nominal, 'gpr_base')
     assert 'metres under' not in str(err.value)

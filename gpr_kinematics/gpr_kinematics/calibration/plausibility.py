@@ -26,16 +26,21 @@ PLAUSIBLE_ANGLE = 0.05
 #: Another reading of the positions is hinted at when it puts every row within the plausible errors and its RMS
 #: position error (the nominal model, its frames fitted again) is at most this share of the file's as read.
 BETTER_READING = 0.1
+#: Implausible rows are named as wrong rows where they are a minority and the others' RMS error is at most this share
+#: of the plausible limits (:func:`_isolated`).
+ISOLATED = 0.1
 
 
 class ImplausiblePoseError(InputError):
     """A measured pose implausibly far from the nominal model's (:data:`PLAUSIBLE_POSITION`,
     :data:`PLAUSIBLE_ANGLE`): wrong units, another frame, or a frame given wrongly (the command line says which).
     ``units``: the lengths' units explain it (the message says which), not a frame or a target; ``angle``: the
-    file's angle unit (deg only where its ``# units:`` line declares it)."""
+    file's angle unit (deg only where its ``# units:`` line declares it); ``target_fitted``: the target's place on
+    the platform is identified from the rows (a target off the origin is then no cause)."""
 
     units = False
     angle = 'rad'
+    target_fitted = False
 
 
 def measured_errors(model: PoseModel, meas: Measurements, theta: ArrayLike) -> Array:
@@ -57,10 +62,13 @@ def implausible(errors: Array) -> tuple[NDArray[np.int64], Array, Array]:
 
 def _check_plausible(meas: Measurements, errors: Array, frame: str,
                      rescaled: Callable[[float], bool] = lambda factor: False,
-                     reading: Callable[[], str] = lambda: '') -> None:
+                     reading: Callable[[], str] = lambda: '', fitted_frame: bool = False,
+                     target_fitted: bool = False) -> None:
     """ImplausiblePoseError for the first row beyond the plausible errors; ``rescaled(factor)``: the positions
     times ``factor`` fit the model (its frames fitted again), for the hint on units; ``reading()``: else
-    :func:`other_reading`'s hint ('' for none)."""
+    :func:`other_reading`'s hint ('' for none). ``fitted_frame``, ``target_fitted``: ``frame``'s pose, the target's
+    place are identified from the rows (another frame is then no cause); a minority of the rows so far off is named
+    as wrong or mismeasured rows."""
     bad, dp, da = implausible(errors)
     if bad.size:
         i = int(bad[0])
@@ -72,16 +80,27 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str,
         elsewhere = ('; a tracker\'s frame is identified with the machine with --frame NAME (docs/calibration.md)'
                      if frame == 'gpr_base' else '')
         hint = '' if mm or metres else reading()
+        few = (('the only row' if bad.size == 1 else f'{bad.size} of {len(errors)} rows') + ' so far off: a wrong or '
+               'mismeasured row? remove it or measure it again; else ') if _isolated(bad, dp, da) else ''
+        other = '' if fitted_frame else f'another frame than {frame}{elsewhere}, or '
         why = ('millimetres? declare "# units: mm"' if mm else
                'metres under the "# units: mm" line? give them in mm' if metres else
-               f'another frame than {frame}{elsewhere}, or a machine that far from its nominal model (an arm\'s zero '
-               'offset of a degree moves its wafer some centimetres): correct the nominal model first'
-               + (f'; {hint}' if hint else ''))
+               f'{few}{other}a machine that far from its nominal model (an arm\'s zero offset of a degree moves its '
+               'wafer some centimetres): correct the nominal model first' + (f'; {hint}' if hint else ''))
         unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
         exc = ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
                                    f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
-        exc.units, exc.angle = mm or metres or bool(hint), meas.units[1]
+        exc.units, exc.angle, exc.target_fitted = mm or metres or bool(hint), meas.units[1], target_fitted
         raise exc
+
+
+def _isolated(bad: NDArray[np.int64], dp: Array, da: Array) -> bool:
+    """Whether the implausible rows ``bad`` are a minority and the others lie well within the limits (their RMS
+    error, each kind over its limit, at most :data:`ISOLATED`): wrong rows, not a systematic error (two rod columns
+    swapped put 4 of 40 rows beyond 0.05 rad and the rest up to it)."""
+    rest = np.setdiff1d(np.arange(len(dp)), bad)
+    spread = np.hypot(dp[rest] / PLAUSIBLE_POSITION, da[rest] / PLAUSIBLE_ANGLE)
+    return 2 * bad.size < len(dp) and float(np.sqrt(np.mean(spread ** 2))) <= ISOLATED
 
 
 def _units_explain(meas: Measurements, errors: Array, i: int, factor: float,
@@ -118,7 +137,8 @@ def plausible_start(model: PoseModel, meas: Measurements, theta0: Array, frame: 
             return False
 
     e, start = errors(meas)
-    _check_plausible(meas, e, frame, rescaled, lambda: other_reading(model, meas, theta0))
+    _check_plausible(meas, e, frame, rescaled, lambda: other_reading(model, meas, theta0),
+                     bool(getattr(model, 'fit_base', False)), getattr(model, 'fit_target', None) is not None)
     return start
 
 

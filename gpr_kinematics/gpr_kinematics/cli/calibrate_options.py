@@ -174,7 +174,7 @@ def with_given_poses(args: argparse.Namespace, run: Callable[[], T]) -> T:
         flags = ' and '.join(f for f in ('--base', '--target') if getattr(args, f[2:], None) is not None)
         units = [u for u, on in (('--mm for millimetres', not args.mm), ('--deg for degrees', not args.deg)) if on]
         gpr = getattr(args, 'robot', None) is None and hasattr(args, 'fit_target')   # not an arm's: its wafer centre
-        if gpr and not flags and not args.fit_target and not exc.units:   # the GPR's target: a probe off the origin?
+        if gpr and not flags and not exc.target_fitted and not exc.units:   # the GPR's target: a probe off the origin?
             unit = 'mm' if args.mm else 'm'
             raise ImplausiblePoseError(f'{exc}; or a target (a probe, a reflector) away from the origin of '
                                        f'gpr_platform: give its place with --target X Y Z [{unit}], or --fit-target'
