@@ -63,7 +63,7 @@ def _checks(res: CalibrationResult) -> list[str]:
     if res.gate.passed:
         passed = [f'{g.name.replace("_", " ")} {g.value:.3g} {">=" if g.at_least else "<="} {g.limit:.3g}'
                   if g.judged else f'{g.name.replace("_", " ")} not judged'
-                  for g in res.gate.checks if g.name != 'minimum']
+                  for g in res.gate.checks if g.name not in ('minimum', 'identified')]
         lines.append('gate: passed (' + ', '.join(passed) + ', minimum reached)')
         lines += [f'  {g.detail}' for g in res.gate.checks if not g.judged]
     else:
