@@ -497,3 +497,33 @@ def test_touches_sees_every_face_of_the_initial_box():
             b = inside.copy()
             b[0, axis, side] = box[axis, side]
             assert touches(box, inside, b) and touches(box, b, np.empty((0, 2, 2))), (axis, side)
+
+
+def test_a_delta_below_the_float_spacing_of_the_bounds_is_refused():
+    """A box of three consecutive floats in x at 0.5 m (the shell's outer sphere runs through it) cannot be halved
+    below an ulp: ``delta`` 1e-27 m passed the rule of 2^-40 of the diameter (1.7e-16 m) and the covering bisected
+    without end (125,646 boundary boxes after its 30 s time limit). 2^-40 of the largest scaled bound is the rule now;
+    at that delta every edge at least delta long halves into two strictly shorter ones (checked on the floats)."""
+    box = np.array([[0.49999999999999994, 0.5000000000000001], [0.0, 1e-30], [0.0, 1e-30]])
+    with pytest.raises(InputError, match=r'too small for the initial box .*bounds up to 0\.5 m scaled.*'
+                                         r'allowed delta >= 4\.55e-13 m \(2\^-40 of its largest scaled bound\)'):
+        approximate(ShellArmModel(), 1e-27, box=box, max_seconds=2.0)
+    for bound in (0.5, 0.52, 1.0, 3.0e5, 1.0e6):
+        delta = bound * 2.0**-40
+        lo = np.nextafter(bound, 0.0) - delta * np.arange(1.0, 3.0)   # edges just above delta, ending at bound
+        hi = np.full_like(lo, bound)
+        mid = 0.5 * (lo + hi)
+        assert np.all((hi - lo >= delta) & (lo < mid) & (mid < hi)), bound
+
+
+def test_an_initial_box_of_volume_underflowing_to_zero_is_refused():
+    """Links of 1e-300 m give the box [-2e-300, 2e-300]^3, of volume 0 in float64: the run divided its progress
+    by that volume (ZeroDivisionError). A box whose volume is not a normal float is an InputError naming it."""
+    model = ShellArmModel(1e-300, 1e-300)
+    assert float(np.prod(model.box[:, 1] - model.box[:, 0])) == 0.0
+    with pytest.raises(InputError, match=r'the initial box has volume 0 .*allowed: a box of volume at least '
+                                         r'2\.23e-308'):
+        approximate(model, 1e-301)
+    tiny = ShellArmModel(1e-100, 1e-100)                    # volume 6.4e-299: still a normal float, covered
+    res = approximate(tiny, 1e-101)
+    assert 0.0 < res.inner_volume <= tiny.exact_volume() <= res.outer_volume

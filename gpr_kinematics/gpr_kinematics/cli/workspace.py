@@ -33,7 +33,7 @@ from ..inputs.files import atomic_output, check_output, check_suffix, output_fol
 from ..inputs.safe_yaml import YamlValue, load_text
 from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
-from ..workspace.base import DEFAULT_MAX_SECONDS, check_max_boxes, check_max_seconds, workspace_report
+from ..workspace.base import DEFAULT_MAX_SECONDS, check_delta, check_max_boxes, check_max_seconds, workspace_report
 from ..workspace.boxes import reached_faces
 from ..workspace.levels import PARTS
 from ..workspace.progress import StopFlag
@@ -174,6 +174,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None and len(outputs) < 2:   # exit 0 with "0 projections written" before
         raise InputError(f'--plot draws the boxes on pairs of output variables; {args.file} has one ({outputs[0]}); '
                          'allowed: --plot for models of 2 or more outputs (--boxes keeps the boxes)')
+    check_delta(delta, model.box[out], model.scale[out])   # refused before the warning below, one line
     edge = float(np.max((model.box[out, 1] - model.box[out, 0]) * model.scale[out]))
     if delta >= edge:  # allowed (docs/workspace.md), but --delta 1 for 1 mm ran one box without a word
         mm = '; millimetres? give --mm' if not args.mm and delta / 1000.0 < edge else ''

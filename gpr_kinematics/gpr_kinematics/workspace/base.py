@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import sys
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
@@ -335,15 +336,29 @@ def check_parameters(model: str, positive: Mapping[str, float | None] | None = N
 
 
 def check_delta(delta: float, box: np.ndarray, scale: np.ndarray) -> None:
-    """``delta`` must be a positive length no smaller than 2^-40 of the box's scaled diameter."""
+    """``delta`` must be a positive length no smaller than 2^-40 of the box's scaled extent: the larger of its scaled
+    diameter and its largest scaled bound magnitude ``max_i scale_i max(|lo_i|, |hi_i|)`` (an edge near a large
+    bound, at 1e6 m say, cannot be halved below a few of its floats' spacing, ulp = 2^-52 times the bound: a box of
+    three consecutive floats at 0.5 m bisected without end until the time limit). 2^-40 of the bound is 2^12 ulp, so
+    every edge above ``delta`` halves into two strictly smaller ones. The initial box's volume (the product of its
+    edges, in the variables' units) must be a normal float: one that underflows to 0 (edges of 1e-200 m) divided the
+    progress by zero."""
     if not 0.0 < plain_number(delta) < math.inf:   # 'a' was a TypeError
         raise InputError(f'delta must be a positive length in metres, got {brief(delta)}')
-    diam = float(np.max((box[:, 1] - box[:, 0]) * scale))
-    if delta < diam * 2.0**-40:
+    edges = box[:, 1] - box[:, 0]
+    diam = float(np.max(edges * scale))
+    extent = max(diam, float(np.max(np.max(np.abs(box), axis=1) * scale)))
+    if delta < extent * 2.0**-40:
         raise InputError(
-            f'delta {delta:g} m is too small for the initial box (diameter {diam:g} m): '
-            f'allowed delta >= {diam * 2.0**-40:.3g} m'
+            f'delta {delta:g} m is too small for the initial box (diameter {diam:g} m'
+            + ('' if extent == diam else f', bounds up to {extent:g} m scaled') +
+            f'): allowed delta >= {extent * 2.0**-40:.3g} m (2^-40 of '
+            + ('its diameter)' if extent == diam else 'its largest scaled bound)')
         )
+    volume = float(np.prod(edges))
+    if not volume >= sys.float_info.min:
+        raise InputError(f'the initial box has volume {volume:g} (the product of its edges {edges.tolist()}); '
+                         f'allowed: a box of volume at least {sys.float_info.min:.3g} in its variables\' units')
 
 
 def check_initial_box(box: Any, names: Sequence[str]) -> np.ndarray:
