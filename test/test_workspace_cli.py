@@ -571,3 +571,29 @@ def test_a_grid_that_finds_no_feasible_node_says_the_workspace_may_lie_between(c
     code, out, err = _run(capsys, 'upu3.yaml', '--delta', '0.01', '--method', 'grid', '--grid-nodes', '4',
                           '--no-progress')
     assert code == 0 and 'inner volume 0.0144' in out and err == '', out + err
+
+
+@pytest.mark.parametrize('method', ['grid', 'uniform'])
+def test_a_sampled_method_is_not_certified_in_its_plots_and_boxes_file(method, tmp_path, capsys):
+    """The plot of a grid run was titled as the covering's ("inner (blue) and boundary (orange)") and its boxes file
+    had no word of certification: a picture and a file of guesses taken for certified ones. Both say so now; the
+    covering's title and file say nothing of the kind, and its file says certified."""
+    import matplotlib.pyplot as plt
+    npz = tmp_path / 'b.npz'
+    code, out, err = _run(capsys, 'dextar.yaml', '--delta', '0.05', '--method', method, '--boxes', str(npz),
+                          '--plot', str(tmp_path / 'p'), '--no-progress')
+    assert code == 0 and 'sampled, not certified' in out
+    with np.load(npz) as f:
+        assert str(f['method']) == method and not bool(f['certified'])
+    from gpr_kinematics.cli.workspace import projection_figure
+    from gpr_kinematics.workspace import approximate
+    model = load_workspace_model(config_path('mechanisms/dextar.yaml'))
+    for m in (method, 'covering'):
+        result = approximate(model, 0.05, method=m, progress=False)
+        fig = projection_figure(result, 0, 1, 'dextar', model.box)
+        title = fig.axes[0].get_title().replace('\n', ' ')
+        plt.close(fig)
+        assert ('not certified' in title) == (m != 'covering') and result.certified == (m == 'covering'), title
+    code, out, err = _run(capsys, 'dextar.yaml', '--delta', '0.05', '--boxes', str(npz), '--no-progress')
+    with np.load(npz) as f:
+        assert bool(f['certified'])

@@ -247,11 +247,12 @@ def output_directory(path: str | Path) -> Path:
 
 def save_boxes(path: str | Path, result: WorkspaceResult, box: np.ndarray, scale: np.ndarray) -> Path:
     """Write ``inner``, ``boundary`` (n, d, 2), ``variables``, ``units``, ``box``, ``scale``, ``delta``,
-    ``method``, ``interrupted`` to exactly ``path`` (no suffix added), atomically (:func:`~.files.atomic_output`)."""
+    ``method``, ``certified`` (false for the sampled methods), ``interrupted`` to exactly ``path`` (no suffix
+    added), atomically (:func:`~.files.atomic_output`)."""
     with atomic_output(path, '--boxes', binary=True) as f:
         np.savez_compressed(f, inner=result.inner, boundary=result.boundary, variables=np.array(result.variables),
                             units=np.array(result.units), box=box, scale=scale, delta=result.delta,
-                            method=result.method, interrupted=result.interrupted)
+                            method=result.method, certified=result.certified, interrupted=result.interrupted)
     return Path(path)
 
 
@@ -299,6 +300,9 @@ def projection_figure(result: WorkspaceResult, i: int, j: int, name: str, box: n
         notes.append(f'stopped early ({result.stopped or "interrupted"}): unexamined boxes drawn as boundary')
     lines = [f'{name}: projection on {result.variables[i]}-{result.variables[j]}',
              f'inner (blue) and boundary (orange), delta = {result.delta:g} m', *notes]
+    if not result.certified:   # a grid's picture was titled as the covering's, "inner" with no word
+        lines.insert(1, f'method {result.method} (sampled, not certified): its "inner" and "outside" boxes are '
+                        'guesses from nodes')
     ax.set_title('\n'.join(textwrap.fill(line, TITLE_WIDTH) for line in lines), fontsize=8)   # none cut at the edge
     fig.tight_layout()
     return fig
