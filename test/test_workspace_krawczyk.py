@@ -93,3 +93,17 @@ def test_point_matrix_times_interval_vector_encloses_every_product():
             vals = [row[i] for row in corners]
             assert Fraction(out.lo[n, i]) <= min(vals) and max(vals) <= Fraction(out.hi[n, i])
             assert float(min(vals)) - out.lo[n, i] < 1e-14 and out.hi[n, i] - float(max(vals)) < 1e-14
+
+
+def test_newton_diverging_to_huge_points_is_quiet_and_not_converged():
+    """``t^2 = x`` at x = -1 has no real root; Newton from t = 1e200 has J = 2e200, whose norm overflowed in numpy
+    with a RuntimeWarning that ``gpr workspace`` printed on stderr (an equations file of ``t^2 = x`` over t, x in
+    [-1, 1]). No warning now, and no point reported converged; t = 1 at x = 1 still converges to its root 1."""
+    import warnings
+    g = Graph(('x', 't'))
+    names = {v: g.var(v) for v in g.variables}
+    tape = Tape.compile(g, [parse_constraint('t^2 - x = 0', g, names, 't').root])
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        p, ok = newton(tape, np.array([[-1.0, 1e200], [-1.0, 1e154], [1.0, 1.2]]), [1], np.zeros(1))
+    assert ok.tolist() == [False, False, True] and abs(p[2, 1] - 1.0) < 1e-15

@@ -33,8 +33,8 @@ INFLATIONS = 2
 def _solve(J: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Batched ``J^-1 F`` and the mask of (numerically) regular ``J``; singular ones give a zero step."""
     m = J.shape[-1]
-    rows = np.linalg.norm(J, axis=2)
-    with np.errstate(all='ignore'):
+    with np.errstate(all='ignore'):   # a diverging Newton's huge J: numpy's overflow warning was printed on stderr
+        rows = np.linalg.norm(J, axis=2)
         det = np.abs(np.linalg.det(J)) / np.prod(np.maximum(rows, 1e-300), axis=1)
     ok = np.isfinite(det) & (det > 1e-12) & np.all(np.isfinite(F), axis=1)
     safe = np.where(ok[:, None, None], J, np.eye(m))
@@ -79,8 +79,9 @@ def newton(
         F, J = tape.jacobian_points(p[rows], idx)
         step, regular = _solve(J, F - target)
         ok[rows] &= regular
-        p[rows[:, None], np.array(idx)] -= step
-        done[rows] = np.all(np.abs(step) <= 1e-12 * (1.0 + np.abs(p[rows][:, idx])), axis=1)
+        with np.errstate(all='ignore'):                # a diverging point may overflow: not converged, no warning
+            p[rows[:, None], np.array(idx)] -= step
+            done[rows] = np.all(np.abs(step) <= 1e-12 * (1.0 + np.abs(p[rows][:, idx])), axis=1)
     return p, ok & done & np.all(np.isfinite(p), axis=1)
 
 
