@@ -527,3 +527,15 @@ def test_an_initial_box_of_volume_underflowing_to_zero_is_refused():
     tiny = ShellArmModel(1e-100, 1e-100)                    # volume 6.4e-299: still a normal float, covered
     res = approximate(tiny, 1e-101)
     assert 0.0 < res.inner_volume <= tiny.exact_volume() <= res.outer_volume
+
+
+def test_the_uniform_grid_keeps_to_the_box_limit_given():
+    """``max_boxes`` (``--max-boxes``) was ignored by the uniform grid: DexTAR at delta 0.33 mm with a limit of
+    1,000 boxes returned 3,158,840 inner and 8,332 boundary cells. Its 3,152 x 3,152 cells are refused now,
+    naming the limit; a grid within it runs and keeps at most that many boxes."""
+    model = load_workspace_model(config_path('mechanisms/dextar.yaml'))
+    with pytest.raises(InputError, match=r'uniform grid with \[3152, 3152\] cells \(9\.94e\+06\) is too large for '
+                                         r'delta 0\.00033; allowed: at most 1000 cells \(the box limit, max_boxes'):
+        approximate(model, 0.00033, method='uniform', max_boxes=1000)
+    res = approximate(model, 0.04, method='uniform', max_boxes=27 * 27)     # 1.04 m / 0.04 m: 26 or 27 cells an edge
+    assert res.inner_boxes + res.boundary_boxes <= 27 * 27 and res.inner_boxes > 0 and not res.certified

@@ -221,7 +221,7 @@ def approximate(
         task = _constraint_task(model, box, method, grid_nodes)
     check_delta(delta, task.box, task.scale)
     if method == 'uniform':
-        return uniform(model, delta, task.box, max_seconds, t0)
+        return uniform(model, delta, task.box, max_seconds, t0, max_boxes)
     executor.forget_model()
     stream = progress_stream
     if progress is None:
