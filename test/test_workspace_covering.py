@@ -539,3 +539,17 @@ def test_the_uniform_grid_keeps_to_the_box_limit_given():
         approximate(model, 0.00033, method='uniform', max_boxes=1000)
     res = approximate(model, 0.04, method='uniform', max_boxes=27 * 27)     # 1.04 m / 0.04 m: 26 or 27 cells an edge
     assert res.inner_boxes + res.boundary_boxes <= 27 * 27 and res.inner_boxes > 0 and not res.certified
+
+
+def test_contains_points_takes_nan_and_infinite_values_quietly():
+    """A NaN point, or boxes of infinite bounds, warned of invalid values (the NaN cell index cast to int64, which
+    numpy leaves undefined); the answers are those of the closed-box test: a NaN or infinite coordinate lies in no
+    box of finite bounds, a finite point lies in a box of infinite bounds around it."""
+    import warnings
+    boxes = np.array([[[0.0, 1.0], [0.0, 1.0]], [[2.0, 3.0], [0.0, 1.0]]])
+    pts = np.array([[np.nan, 0.5], [np.inf, 0.5], [0.5, -np.inf], [0.5, 0.5], [2.5, 1.0], [1.5, 0.5]])
+    wide = np.array([[[-np.inf, np.inf], [0.0, 1.0]], [[5.0, 6.0], [0.0, np.inf]]])
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        assert contains_points(boxes, pts).tolist() == [False, False, False, True, True, False]
+        assert contains_points(wide, pts).tolist() == [False, True, False, True, True, True]

@@ -86,7 +86,10 @@ def contains_points(boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
         size = np.where(hi > lo, (hi - lo) / cells, 1.0)
 
         def cell_of(x: np.ndarray, size: np.ndarray = size, cells: int = cells) -> np.ndarray:
-            return np.asarray(np.clip(np.floor((x - lo) / size), 0, cells - 1).astype(np.int64))
+            # NaN (a NaN point, or inf - inf of infinite bounds) to cell 0: its cast to int64 warned and is undefined
+            with np.errstate(invalid='ignore'):
+                f = np.nan_to_num(np.floor((x - lo) / size), nan=0.0, posinf=cells - 1, neginf=0.0)
+            return np.asarray(np.clip(f, 0, cells - 1).astype(np.int64))
 
         i0 = cell_of(boxes[:, :, 0])
         span = cell_of(boxes[:, :, 1]) - i0 + 1
