@@ -114,6 +114,9 @@ def test_overrides_grid_method_and_time_limit(capsys):
     (['shell_arm.yaml', '--delta', '0'], '--delta = 0 is invalid; allowed: a positive number (m, or mm with --mm)\n'),
     (['shell_arm.yaml', '--delta', '-1'], '--delta = -1 is invalid; allowed: a positive number'),
     (['shell_arm.yaml', '--delta', '1e-30'], 'too small'),
+    (['shell_arm.yaml', '--delta', '5e-324', '--mm'],   # positive, 0 m: it was said not to be positive
+     '--delta = 4.94066e-324 mm is 0 m in floating point; allowed: a positive number of mm whose metres are a float '
+     'above 0 (at least 4.94e-321 mm)\n'),
     (['no_such_file.yaml', '--delta', '0.1'], 'not found'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1'], 'KEY=VALUE'),
     (['shell_arm.yaml', '--delta', '0.1', '--set', 'l1=-2'], 'positive'),

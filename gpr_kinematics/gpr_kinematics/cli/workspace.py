@@ -127,6 +127,9 @@ def _scheduler(args: argparse.Namespace) -> str:
 
 def _check_args(args: argparse.Namespace) -> float:
     delta = metres(float(args.delta), args.mm)
+    if 0 < float(args.delta) < math.inf and delta == 0:   # '--delta 5e-324 --mm' was said not to be positive
+        raise InputError(f'--delta = {args.delta:g} mm is 0 m in floating point; allowed: a positive number of mm '
+                         f'whose metres are a float above 0 (at least {1e3 * 5e-324:.3g} mm)')
     if not math.isfinite(delta) or delta <= 0:
         raise InputError(f'--delta = {args.delta:g} is invalid; allowed: a positive number (m, or mm with --mm)')
     # options of another method or scheduler were run without a word (--grid-nodes 5 under the covering)
