@@ -150,6 +150,10 @@ BASE = {'type': 'equations', 'parameters': {'a': 1.0}, 'variables': {'q': [-1.0,
     ({'outputs': ['q', 'x']}, r'1 equations and 0 passive variables \[\]: an equation needs a passive variable of '
                               r'its own to solve for; allowed: at most as many equations as passive variables'),
     ({'periodic': ['q'], 'equations': ['x = a*sin(q) + q']}, 'used by a constraint itself'),
+    # a length and a name that is no variable: "it is used by a non-angle unit", "it is used by nothing"
+    ({'periodic': ['q'], 'units': {}}, r"'q' must be an angle .*; its unit is m \(units: \{q: rad\} makes it an "
+                                       r'angle\)$'),
+    ({'periodic': ['w']}, r"'w' must be an angle .*; it is not a variable \(the variables: q, x\)$"),
     ({'parameters': {'a': True}}, 'a must be a finite number'),
     ({'parameters': {'a': 1.0}, 'a': '2'}, 'a must be a finite number'),
     ({'equatoins': ['x = q']}, 'unknown key.*equatoins'),

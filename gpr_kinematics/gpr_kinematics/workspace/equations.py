@@ -88,9 +88,12 @@ def _check_periodic(name: str, graph: Graph, units: tuple[str, ...], periodic: S
         i = variables.index(v) if v in variables else -1
         bad = _non_periodic_use(graph, i, {c.root.id for c in constraints}) if i >= 0 else 'nothing'
         if i < 0 or units[i] != 'rad' or bad:
+            # it said "it is used by a non-angle unit" of a variable in m, "used by nothing" of no variable
+            why = (f'it is not a variable (the variables: {", ".join(variables)})' if i < 0 else
+                   f'its unit is {units[i]} (units: {{{v}: rad}} makes it an angle)' if units[i] != 'rad' else
+                   f'it is used by {bad}')
             raise ConfigError(f'{name}: periodic variable {v!r} must be an angle (rad) that every constraint uses '
-                              f'through sin or cos of an integer multiple of it plus other terms; it is used by '
-                              f'{bad or "a non-angle unit"}')
+                              f'through sin or cos of an integer multiple of it plus other terms; {why}')
 
 
 class EquationModel:
