@@ -641,7 +641,7 @@ def test_sigmas_given_on_the_command_line_are_the_noise_and_gate_an_outlier(caps
     position = bare.position.copy()
     position[5] += np.array([5e-4, -5e-4, 5e-4]) / np.sqrt(3)
     write_measurements(tmp_path / 'outlier.csv', dataclasses.replace(bare, position=position))
-    noise = ('--sigma-position', repr(sp), '--sigma-angle', repr(sa), '--json')
+    noise = ('--sigma-position', repr(sp), '--sigma-angle', repr(sa), '--json', '--no-progress')
     status, out, err = run(capsys, 'calibrate', str(tmp_path / 'clean.csv'), '--output', str(tmp_path / 'c.yaml'),
                            *noise)
     assert status == 0 and json.loads(out)['absolute_sigma'], err
