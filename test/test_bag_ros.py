@@ -394,7 +394,7 @@ def test_a_longer_drain_timeout_keeps_what_a_short_one_loses(tmp_path: Path, mon
                                 fsync=False)
     writer.open()
     node = types.SimpleNamespace(writer=writer, received={'/chatter': 0}, p={'drain_timeout': drain_timeout},
-                                 get_logger=lambda: logger)
+                                 get_logger=lambda: logger, subs=[])
     node._write_failed = lambda exc: recorder_node.RecorderNode._write_failed(node, exc)
     take = recorder_node.RecorderNode._callback(node, '/chatter')
     for i in range(3):   # taken before the stop
@@ -418,6 +418,56 @@ def test_a_longer_drain_timeout_keeps_what_a_short_one_loses(tmp_path: Path, mon
     else:
         assert warned == []
     assert f'(written/received per topic: /chatter {kept + 3}/{kept + 3}; ' in lines[-1][1]
+
+
+def test_spins_woken_by_guard_conditions_do_not_end_the_drain_while_the_readers_hold_messages(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A recorder behind its stream, stopped with 27 messages a topic in its readers, lost them in a loaded CI run:
+    three spins in a row took nothing (waits woken by guard conditions only: the SIGINT's, the graph's as the replay
+    ended) and ended the drain. The node's own on_exit on a stand-in node, executor (every spin empty) and
+    subscription (10 messages in its reader): all 10 are taken, then the drain ends without a warning."""
+    import types
+
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+    from gpr_kinematics.nodes import recorder_node
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import String
+
+    clock = types.SimpleNamespace(now=0.0)
+    monkeypatch.setattr(recorder_node, 'time', types.SimpleNamespace(monotonic=lambda: clock.now,
+                                                                    time_ns=lambda: int(1.7e18 + clock.now * 1e9)))
+    lines: list[tuple[str, str]] = []
+    logger = types.SimpleNamespace(info=lambda m: lines.append(('info', m)),
+                                   warning=lambda m: lines.append(('warning', m)))
+    writer = SegmentedBagWriter(tmp_path / 'bag', {'/chatter': 'std_msgs/msg/String'}, flush_interval=0,
+                                fsync=False)
+    writer.open()
+    node = types.SimpleNamespace(writer=writer, received={'/chatter': 0}, p={'drain_timeout': 5.0},
+                                 get_logger=lambda: logger)
+    node._write_failed = lambda exc: recorder_node.RecorderNode._write_failed(node, exc)
+    waiting = [serialize_message(String(data=f'm{i}')) for i in range(10)]
+
+    class Reader:
+        def __enter__(self) -> None:
+            return None
+
+        def __exit__(self, *exc: object) -> None:
+            return None
+
+        def take_message(self, msg_type: type, raw: bool) -> tuple[bytes, dict[str, int]] | None:
+            assert msg_type is String and raw
+            return (waiting.pop(0), {}) if waiting else None
+
+    node.subs = [types.SimpleNamespace(handle=Reader(), msg_type=String, raw=True,
+                                       callback=recorder_node.RecorderNode._callback(node, '/chatter'))]
+
+    def spin_once(timeout_sec: float) -> None:   # woken by a guard condition: no callback
+        clock.now += 1e-4
+
+    assert recorder_node.RecorderNode.on_exit(node, types.SimpleNamespace(spin_once=spin_once), 0) == 0
+    assert waiting == [] and read_bag(tmp_path / 'bag').message_count == 10
+    assert [m for kind, m in lines if kind == 'warning'] == []
+    assert '(written/received per topic: /chatter 10/10; ' in lines[-1][1]
 
 
 @pytest.mark.slow

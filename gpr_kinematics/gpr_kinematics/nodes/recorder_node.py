@@ -58,7 +58,25 @@ WRITE_ERRORS: tuple[type[BaseException], ...] = (OSError, sqlite3.Error, WriterE
 #: The spins in a row that take no message, without waiting, which end the drain after a stop request before its
 #: ``drain_timeout``: what DDS already delivered is written, what a live stream sends after the stop is not waited for
 #: (a quiet time of 0.2 s never came beside the simulator's idle joint_states: 5 s more were recorded after every stop).
+#: A spin is empty too when its wait woke for guard conditions only (the SIGINT's, the graph's as a publisher ends):
+#: the drain then reads the readers themselves (:func:`take_waiting`) and ends only where they hold nothing.
 DRAIN_EMPTY_SPINS = 3
+
+
+def take_waiting(subscriptions: Sequence[Any], end: float) -> int:
+    """Take every message the ``subscriptions``' readers hold now (as rclpy's executor takes one per wait), each
+    through its callback, until they hold none or ``time.monotonic()`` reaches ``end``; the number taken. A recorder
+    behind its stream stopped after three spins woken by guard conditions with 27 messages a topic waiting."""
+    taken = 0
+    for sub in subscriptions:
+        while time.monotonic() < end:
+            with sub.handle:
+                got = sub.handle.take_message(sub.msg_type, sub.raw)
+            if got is None:
+                break
+            sub.callback(got[0])
+            taken += 1
+    return taken
 
 
 def default_output() -> Path:
@@ -195,7 +213,8 @@ class RecorderNode(GprNode):
 
     def on_exit(self, executor: Executor, status: int) -> int:
         """Drain what DDS already delivered (the timers cancelled, until :data:`DRAIN_EMPTY_SPINS` spins in a row that
-        do not wait take no message, at most ``drain_timeout`` s: a warning when that ends it), close the bag and log
+        do not wait take no message and the readers then hold none, at most ``drain_timeout`` s: a warning when that
+        ends it), close the bag and log
         the counts per topic. After an error (status 1) the bag keeps the segments closed before it."""
         if status != EXIT_OK:
             kept = self.writer.closed_message_count
@@ -208,12 +227,14 @@ class RecorderNode(GprNode):
             if timer is not None:   # a due timer took the spins: a recorder behind stopped with messages waiting
                 timer.cancel()
         limit = float(self.p['drain_timeout'])
-        end, empty, start = time.monotonic() + limit, 0, sum(self.received.values())
-        while empty < DRAIN_EMPTY_SPINS and time.monotonic() < end:
+        end, empty, start, drained = time.monotonic() + limit, 0, sum(self.received.values()), False
+        while not drained and time.monotonic() < end:
             taken = sum(self.received.values())
             executor.spin_once(timeout_sec=0.0)
             empty = empty + 1 if sum(self.received.values()) == taken else 0
-        if empty < DRAIN_EMPTY_SPINS and limit > 0:   # a recorder behind its stream lost the rest without a word
+            if empty >= DRAIN_EMPTY_SPINS:   # the readers hold nothing (a wait woken by a guard condition only: go on)
+                drained, empty = take_waiting(self.subs, end) == 0, 0
+        if not drained and limit > 0:   # a recorder behind its stream lost the rest without a word
             after = sum(self.received.values()) - start
             self.get_logger().warning(f'the drain ended at drain_timeout = {limit:g} s with messages still coming '
                                       f'({after} taken after the stop): the rest is not recorded; a longer '
