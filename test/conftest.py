@@ -1,8 +1,8 @@
 """Test configuration: the ``ros`` marker and the ROS environment of the tests that need it.
 
 ``pytest -m ros`` runs the tests over real DDS (nodes as separate processes, the colcon build of ``make setup``);
-``pytest -m "not ros"`` runs everything else, without the colcon build or ROS. ``slow`` marks the few tests of the
-quick loop's files (``make test-quick``) that take seconds each. A test module opts in with
+``pytest -m "not ros"`` runs everything else, without the colcon build or ROS. ``slow`` marks the tests that take
+2 s or more alone (6 s for a test marked ``ros``): ``make test-quick`` and the stock run leave them out. A test module opts in with
 ``pytestmark = pytest.mark.ros``: its fixtures and tests then run in the environment of
 :func:`ros_environment` (no import side effect: ROS packages are imported inside the tests, after it).
 
@@ -33,8 +33,9 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line('markers', 'ros: needs the colcon build (make setup) and runs nodes over real DDS')
-    config.addinivalue_line('markers', 'slow: takes seconds; left out of make test-quick and of the stock run '
-                                       '(make test runs it on the pinned versions)')
+    config.addinivalue_line('markers', 'slow: takes 2 s or more alone (a test marked ros: 6 s or more); left out of '
+                                       'make test-quick and of the stock run (make test runs it on the pinned '
+                                       'versions)')
 
 
 #: Reruns of a failed test marked ``ros`` (pytest-rerunfailures, where installed): its nodes run over DDS as processes
