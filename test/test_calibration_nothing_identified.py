@@ -8,6 +8,7 @@ import json
 
 import numpy as np
 from calibration_support import run
+from gpr_kinematics.calibration.arm import arm_parameters
 from gpr_kinematics.calibration.core_model import CoreModel
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import write_measurements
@@ -15,6 +16,7 @@ from gpr_kinematics.calibration.model import evaluate
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.core import naive_inverse
 from gpr_kinematics.core.config import load_config
+from gpr_kinematics.robot.description import load_robot
 
 
 def machine():
@@ -63,3 +65,37 @@ def test_a_fit_that_identifies_parameters_passes_the_check(capsys, tmp_path):
     assert check['passed'] and check['value'] == 3.0 and check['limit'] == 1.0 and check['at_least']
     kappas = [p['estimate'] for p in data['parameters'] if p['name'].startswith('kappa')]
     assert np.allclose(kappas, 3.0, rtol=0.2)                                   # the truth, not the nominal 1000
+
+
+def test_every_parameter_fixed_on_purpose_passes_the_check():
+    """``free=[]`` (every parameter of the machine fixed on purpose: a check of the nominal geometry) is no failure to
+    identify: the check passes at a limit of 0 (it failed with 'No free parameter ... ( held at nominal)')."""
+    core, theta = machine()
+    tilted = naive_inverse(np.linspace(0.02, 0.48, 20), np.full(20, 0.9 * core.config.tilt_limit),
+                           np.linspace(0.0, 2.0 * np.pi, 20, endpoint=False), core.config)
+    meas = synthetic_measurements(core, core.parameters.nominal, tilted, 3e-6, 2e-5, seed=4)
+    res = identify(core, meas, free=[])
+    check = {c.name: c for c in res.gate.checks}['identified']
+    assert (check.passed, check.value, check.limit, check.detail) == (True, 0.0, 0.0, '')
+    assert set(res.status) == {'fixed'} and res.gate.passed
+
+
+def test_robot_free_of_one_arm_passes_the_other_arm(capsys, tmp_path):
+    """``gpr calibrate --robot`` with both arms' files and ``--free`` of arm1's elbow only: arm2, every parameter fixed
+    on purpose, failed the gate ('No free parameter of the machine is identifiable from these measurements ( held at
+    nominal)'), exit 1 and no file."""
+    from test_calibration_arm import measured, rows, write
+    robot = load_robot()
+    files = []
+    for k, name in enumerate(('arm1', 'arm2')):
+        ps = arm_parameters(robot.arm(name))
+        Q, J = rows(robot, robot.arm(name), 40, 1 + k)
+        files.append(write(tmp_path / f'{name}.csv', robot,
+                           measured(robot, name, ps.values(ps.nominal), Q, J, np.ones(40, dtype=bool), 2 + k)))
+    out = tmp_path / 'robot.yaml'
+    status, text, err = run(capsys, 'calibrate', '--robot', robot.source, *files, '--output', str(out),
+                            '--free', 'arm1_elbow_length', '--no-progress', '--json')
+    assert status == 0 and out.exists(), err
+    checks = {a['arm']: {c['name']: c for c in a['gate']['checks']}['identified'] for a in json.loads(text)['arms']}
+    assert {arm: (c['passed'], c['value'], c['limit']) for arm, c in checks.items()} == \
+        {'arm1': (True, 1.0, 1.0), 'arm2': (True, 0.0, 0.0)}

@@ -313,12 +313,12 @@ def _gate(best: Minimum, params: ParameterSet, fit: NDArray[np.int64], chi2_red:
     return Gate(tuple(c if not c.passed or not c.judged else replace(c, detail='') for c in checks))
 
 
-def _identified(model: PoseModel, fit: NDArray[np.int64], held: tuple[str, ...]) -> GateCheck:
-    """The gate's check that the fit identified a parameter of the machine (not only the frames, after ``n_inner``):
-    with none, the file written would be the nominal geometry, called calibrated."""
+def _identified(model: PoseModel, mask: NDArray[np.bool_], fit: NDArray[np.int64], held: tuple[str, ...]) -> GateCheck:
+    """That a free parameter of the machine (before ``n_inner``) is fitted; limit 0 where ``mask`` frees none."""
     inner = int(getattr(model, 'n_inner', len(model.parameters)))
-    n, free = int(np.sum(fit < inner)), ', '.join(name for name in held if model.parameters.index(name) < inner)
-    return GateCheck('identified', n > 0, float(n), 1.0, '' if n else
+    n, limit = int(np.sum(fit < inner)), float(np.any(mask[:inner]))   # all fixed on purpose: another arm's --free
+    free = ', '.join(name for name in held if model.parameters.index(name) < inner)
+    return GateCheck('identified', n >= limit, float(n), limit, '' if n >= limit else
                      f'No free parameter of the machine is identifiable from these measurements ({free} held at '
                      'nominal): nothing was calibrated. Measure configurations that move them (gpr calibrate --plan '
                      'N), or free others (--free).', at_least=True)
@@ -425,7 +425,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     options = [kind for kind in known if getattr(meas, f'sigma_{kind}') is None]   # the options', not a column's
     more = (sigma_check(h, best.residual, known, options) if known else None,
             outlier_check(h, best.residual, names, robust=[kind not in known for kind, _ in KINDS[k]],
-                          fitted=fit.size), _identified(model, fit, tuple(ident.held)))
+                          fitted=fit.size), _identified(model, mask, fit, tuple(ident.held)))
     weak = weak_at_estimate(params, fit, se, scale)
     gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual), weak)
     warnings = far_from_prior(params, fit, theta, theta0, scale, frame) + weak
