@@ -898,3 +898,40 @@ def test_a_replay_says_what_it_does_not_read_and_where_it_published(tmp_path: Pa
     assert f'finished: published /r2/gpr/platform_state {n}' in out, out
     assert ('unfinished segment(s) (a recording still running, or a recorder killed): .recording/bag_9/bag_9.mcap: '
             'not replayed') in out, out
+
+
+def test_take_waiting_gives_message_info_and_skips_a_destroyed_subscription() -> None:
+    """The drain's direct take (recorder_node.take_waiting) as rclpy's executor takes: a callback of (message, info)
+    got the message alone (TypeError: missing 1 required positional argument: 'info'), and a destroyed subscription
+    raised InvalidHandle ('cannot use Destroyable because destruction was requested'); now the three messages
+    waiting come with their publication sequence numbers 1, 2, 3, and the destroyed one holds nothing."""
+    import rclpy
+    from gpr_kinematics.nodes.recorder_node import take_waiting
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    try:
+        node = rclpy.create_node('gpr_test_take_waiting', context=ctx)
+        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        got: list[tuple[str, int]] = []
+        sub = node.create_subscription(String, 'gpr_test_take_waiting', lambda m, info: got.append(
+            (m.data, info['publication_sequence_number'])), qos)
+        gone = node.create_subscription(String, 'gpr_test_take_waiting', lambda m: got.append((m.data, -1)), qos)
+        node.destroy_subscription(gone)
+        pub = node.create_publisher(String, 'gpr_test_take_waiting', qos)
+        deadline = time.monotonic() + 10.0
+        while pub.get_subscription_count() < 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        for i in range(3):
+            pub.publish(String(data=f'm{i}'))
+        taken: list[int] = []
+        while sum(taken) < 3 and time.monotonic() < deadline:
+            taken.append(take_waiting([gone, sub], time.monotonic() + 1.0))
+            time.sleep(0.05)
+        assert got == [('m0', 1), ('m1', 2), ('m2', 3)] and sum(taken) == 3, (got, taken)
+        assert take_waiting([gone], time.monotonic() + 1.0) == 0
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=ctx)

@@ -39,8 +39,10 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from rclpy.exceptions import InvalidHandle
 from rclpy.executors import Executor
 from rclpy.qos import QoSProfile
+from rclpy.subscription import Subscription
 from rosbags.rosbag2.errors import WriterError
 
 from ..bags.errors import BagError
@@ -65,16 +67,22 @@ DRAIN_EMPTY_SPINS = 3
 
 def take_waiting(subscriptions: Sequence[Any], end: float) -> int:
     """Take every message the ``subscriptions``' readers hold now (as rclpy's executor takes one per wait), each
-    through its callback, until they hold none or ``time.monotonic()`` reaches ``end``; the number taken. A recorder
-    behind its stream stopped after three spins woken by guard conditions with 27 messages a topic waiting."""
+    through its callback (with its message info where the callback takes it; a destroyed subscription holds none),
+    until they hold none or ``time.monotonic()`` reaches ``end``; the number taken. A recorder behind its stream
+    stopped after three spins woken by guard conditions with 27 messages a topic waiting."""
     taken = 0
     for sub in subscriptions:
         while time.monotonic() < end:
-            with sub.handle:
-                got = sub.handle.take_message(sub.msg_type, sub.raw)
+            try:
+                with sub.handle:
+                    got = sub.handle.take_message(sub.msg_type, sub.raw)
+            except InvalidHandle:   # a destroyed subscription holds nothing (rclpy's executor skips it so)
+                break
             if got is None:
                 break
-            sub.callback(got[0])
+            # a callback of (message, info) is given both, as by the executor (it raised a TypeError)
+            info = getattr(sub, '_callback_type', None) is Subscription.CallbackType.WithMessageInfo
+            sub.callback(*(got if info else got[:1]))
             taken += 1
     return taken
 
