@@ -370,19 +370,13 @@ def test_a_recorder_behind_its_stream_takes_it_all_at_a_stop(tmp_path: Path) -> 
     assert verify_bag(again).passed
 
 
-@pytest.mark.parametrize('drain_timeout, kept', [(5.0, 5), (20.0, 10), (0.0, 0)])
-def test_a_longer_drain_timeout_keeps_what_a_short_one_loses(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                                             drain_timeout: float, kept: int) -> None:
-    """The drain at a stop ended at 5 s, fixed: a recorder more than 5 s behind lost the rest, its log saying only
-    written/received of what it took. ``drain_timeout`` bounds it: the node's own on_exit on a stand-in node and
-    executor, 10 messages waiting, each taking 1 s of a stand-in clock to write (DDS cannot be made 5 s behind on
-    demand): 5 s keeps 5 and warns, 20 s all 10 (then three empty spins end it), 0 none, without a warning."""
+def stand_in_recorder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, drain_timeout: float) -> tuple[Any, Any, list]:
+    """A stand-in recorder node for its own ``on_exit`` (no DDS): a bag writer of ``/chatter`` in ``tmp_path / 'bag'``,
+    a stand-in clock (``clock.now`` [s]) and logger (``lines`` of (kind, message)); no subscriptions."""
     import types
 
     from gpr_kinematics.bags.writer import SegmentedBagWriter
     from gpr_kinematics.nodes import recorder_node
-    from rclpy.serialization import serialize_message
-    from std_msgs.msg import String
 
     clock = types.SimpleNamespace(now=0.0)
     monkeypatch.setattr(recorder_node, 'time', types.SimpleNamespace(monotonic=lambda: clock.now,
@@ -396,6 +390,23 @@ def test_a_longer_drain_timeout_keeps_what_a_short_one_loses(tmp_path: Path, mon
     node = types.SimpleNamespace(writer=writer, received={'/chatter': 0}, p={'drain_timeout': drain_timeout},
                                  get_logger=lambda: logger, subs=[])
     node._write_failed = lambda exc: recorder_node.RecorderNode._write_failed(node, exc)
+    return node, clock, lines
+
+
+@pytest.mark.parametrize('drain_timeout, kept', [(5.0, 5), (20.0, 10), (0.0, 0)])
+def test_a_longer_drain_timeout_keeps_what_a_short_one_loses(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                             drain_timeout: float, kept: int) -> None:
+    """The drain at a stop ended at 5 s, fixed: a recorder more than 5 s behind lost the rest, its log saying only
+    written/received of what it took. ``drain_timeout`` bounds it: the node's own on_exit on a stand-in node and
+    executor, 10 messages waiting, each taking 1 s of a stand-in clock to write (DDS cannot be made 5 s behind on
+    demand): 5 s keeps 5 and warns, 20 s all 10 (then three empty spins end it), 0 none, without a warning."""
+    import types
+
+    from gpr_kinematics.nodes import recorder_node
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import String
+
+    node, clock, lines = stand_in_recorder(tmp_path, monkeypatch, drain_timeout)
     take = recorder_node.RecorderNode._callback(node, '/chatter')
     for i in range(3):   # taken before the stop
         take(serialize_message(String(data=f'before {i}')))
@@ -428,23 +439,11 @@ def test_spins_woken_by_guard_conditions_do_not_end_the_drain_while_the_readers_
     subscription (10 messages in its reader): all 10 are taken, then the drain ends without a warning."""
     import types
 
-    from gpr_kinematics.bags.writer import SegmentedBagWriter
     from gpr_kinematics.nodes import recorder_node
     from rclpy.serialization import serialize_message
     from std_msgs.msg import String
 
-    clock = types.SimpleNamespace(now=0.0)
-    monkeypatch.setattr(recorder_node, 'time', types.SimpleNamespace(monotonic=lambda: clock.now,
-                                                                    time_ns=lambda: int(1.7e18 + clock.now * 1e9)))
-    lines: list[tuple[str, str]] = []
-    logger = types.SimpleNamespace(info=lambda m: lines.append(('info', m)),
-                                   warning=lambda m: lines.append(('warning', m)))
-    writer = SegmentedBagWriter(tmp_path / 'bag', {'/chatter': 'std_msgs/msg/String'}, flush_interval=0,
-                                fsync=False)
-    writer.open()
-    node = types.SimpleNamespace(writer=writer, received={'/chatter': 0}, p={'drain_timeout': 5.0},
-                                 get_logger=lambda: logger)
-    node._write_failed = lambda exc: recorder_node.RecorderNode._write_failed(node, exc)
+    node, clock, lines = stand_in_recorder(tmp_path, monkeypatch, 5.0)
     waiting = [serialize_message(String(data=f'm{i}')) for i in range(10)]
 
     class Reader:
