@@ -444,7 +444,8 @@ REGRESSIONS = [
     ('robot teach --table  --rods 0.25 0.25 0.25 --joints 0 0 0', 2, 'give either --table FILE or --rods'),
     # the uniform grid made every node at once (3 GB for 1.3e8 nodes) and its limit (5e8 nodes) allowed 36 GB of boxes
     ('workspace shell_arm.yaml --delta 2 --mm --method uniform --scheduler none --no-progress', 2,
-     'allowed: at most 1e+07 cells (use a larger delta or the covering method)'),
+     'allowed: at most 1e+07 cells (the box limit, max_boxes or --max-boxes: each cell may come back as a box); use '
+     'a larger delta, a larger box limit or the covering method'),
     ('workspace tripod_3rps.yaml --delta 0.05 --method grid --grid-nodes ' + '9' * 500, 2,   # was an OverflowError
      'nodes per edge in 3 dimensions gives 10^1500 nodes per box; allowed: at least 2 per edge and at most 4096'),
     # a number in exponent form without a point is a number (YAML 1.2), not the text '13e-2'

@@ -94,8 +94,8 @@ def uniform(model: WorkspaceModel, delta: float, box: np.ndarray, max_seconds: f
     if float(np.prod(counts)) > limit:
         raise InputError(
             f'uniform grid with {counts.astype(int).tolist()} cells ({float(np.prod(counts)):.3g}) is too large for '
-            f'delta {delta:g}; allowed: at most {limit:.4g} cells (the box limit, max_boxes: each cell may come '
-            'back as a box; use a larger delta or the covering method)'
+            f'delta {delta:g}; allowed: at most {limit:.4g} cells (the box limit, max_boxes or --max-boxes: each '
+            'cell may come back as a box); use a larger delta, a larger box limit or the covering method'
         )
     cells = counts.astype(int)
     axes = [np.linspace(box[i, 0], box[i, 1], cells[i] + 1) for i in range(d)]
