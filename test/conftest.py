@@ -2,8 +2,8 @@
 
 ``pytest -m ros`` runs the tests over real DDS (nodes as separate processes, the colcon build of ``make setup``);
 ``pytest -m "not ros"`` runs everything else, without the colcon build or ROS. ``slow`` marks the tests that take
-2 s or more alone (6 s for a test marked ``ros``): ``make test-quick`` and the stock run leave them out. A test module opts in with
-``pytestmark = pytest.mark.ros``: its fixtures and tests then run in the environment of
+2 s or more alone (6 s for a test marked ``ros``): ``make test-quick`` and the stock run leave them out. A test
+module opts in with ``pytestmark = pytest.mark.ros``: its fixtures and tests then run in the environment of
 :func:`ros_environment` (no import side effect: ROS packages are imported inside the tests, after it).
 
 Every ROS test of a run shares one ``ROS_DOMAIN_ID``: ``GPR_TEST_ROS_DOMAIN_ID`` when set (give parallel runs on
