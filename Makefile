@@ -1,7 +1,8 @@
 # gpr_kinematics: the two commands of the README are `make demo` and `make test`.
 #
 # `make setup` (idempotent, stamp files) creates .venv with the pinned core requirements and the pinned
-# ROS 2 Jazzy wheels (requirements-ros.txt), repairs the wheels' exported CMake files (ros_env fix-wheels)
+# ROS 2 Jazzy wheels (requirements-ros.txt; --no-compile: Python writes the bytecode of what it imports when it first
+# does, about 20 CPU-s less than pip compiling every module of every wheel), repairs the wheels' exported CMake files (ros_env fix-wheels)
 # and runs `colcon build` at the root (colcon_defaults.yaml: gpr_kinematics and gpr_interfaces, symlink install,
 # so the nodes run the working tree's code; plus fallback/tf2_msgs where no tf2_msgs is installed) into
 # install/. Commands that need ROS run through `python -m gpr_kinematics.ros.env exec --`, which sets the
@@ -48,8 +49,8 @@ $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinema
 	@command -v cc >/dev/null || { echo 'make setup: no C compiler (apt-get install gcc)' >&2; exit 1; }
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -r requirements.txt -r requirements-ros.txt
-	$(PY) -m pip install --quiet --no-deps -r requirements-test.txt
+	$(PY) -m pip install --quiet --no-compile -r requirements.txt -r requirements-ros.txt
+	$(PY) -m pip install --quiet --no-compile --no-deps -r requirements-test.txt
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
 	$(PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STAMP)
@@ -69,8 +70,8 @@ $(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt req
 	awk -F'==' 'NR == FNR { if (NF == 2 && $$0 !~ /^#/) pin[tolower($$1)] = $$0; next } \
 		{ name = tolower($$1); print ((name in pin) ? pin[name] : $$0) }' \
 		requirements-stock.txt requirements.txt > $(STOCK_VENV)/requirements.txt
-	$(STOCK_PY) -m pip install --quiet -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
-	$(STOCK_PY) -m pip install --quiet --no-deps -r requirements-test.txt
+	$(STOCK_PY) -m pip install --quiet --no-compile -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
+	$(STOCK_PY) -m pip install --quiet --no-compile --no-deps -r requirements-test.txt
 	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
 	$(STOCK_PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STOCK_STAMP)
@@ -98,6 +99,10 @@ PINNED_NOT_ROS = $(call DOMAIN_OF,$(1)) $(PY) -m pytest -q -p no:cacheprovider -
 STOCK_RUN = GPR_INSTALL_DIR=$(CURDIR)/$(STOCK_INSTALL) $(call DOMAIN_OF,$(1)) $(STOCK_PY) -m pytest -q -p no:cacheprovider \
 	--durations=10 test -m $(2) --ignore test/test_lint.py --ignore test/test_types.py --ignore test/test_layout.py
 
+# The runs share two cores: the threads of numpy's and scipy's OpenBLAS, waiting for work by spinning, took CPU time the
+# other runs needed (four test modules alone: 82 CPU-s with them, 47 with one thread, the same wall time), so each
+# run of `make test` has one BLAS thread.
+test: export OPENBLAS_NUM_THREADS = 1
 test:
 	$(MAKE) --no-print-directory -j2 setup setup-stock
 	$(MAKE) --no-print-directory --output-sync=target -j3 test-pinned-ros test-stock-ros test-stock-rest \
