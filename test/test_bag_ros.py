@@ -383,7 +383,8 @@ def stand_in_recorder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, drain_tim
                                                                     time_ns=lambda: int(1.7e18 + clock.now * 1e9)))
     lines: list[tuple[str, str]] = []
     logger = types.SimpleNamespace(info=lambda m: lines.append(('info', m)),
-                                   warning=lambda m: lines.append(('warning', m)))
+                                   warning=lambda m: lines.append(('warning', m)),
+                                   error=lambda m: lines.append(('error', m)))
     writer = SegmentedBagWriter(tmp_path / 'bag', {'/chatter': 'std_msgs/msg/String'}, flush_interval=0,
                                 fsync=False)
     writer.open()
@@ -429,6 +430,53 @@ def test_a_longer_drain_timeout_keeps_what_a_short_one_loses(tmp_path: Path, mon
     else:
         assert warned == []
     assert f'(written/received per topic: /chatter {kept + 3}/{kept + 3}; ' in lines[-1][1]
+
+
+@pytest.mark.parametrize('fails_in', ['drain', 'close'])
+def test_a_full_disk_at_the_stop_keeps_the_closed_segments_and_exits_1(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                     fails_in: str) -> None:
+    """A write failing in the drain or the close at a stop (a full disk) raised out of on_exit: exit 1 with its line,
+    but the open segment was not dropped and nothing said what the bag kept. Now as a write failing while recording:
+    the node's own on_exit on a stand-in node: one error line, the 3 messages of the closed segment kept and said."""
+    import errno
+    import types
+
+    from gpr_kinematics.nodes import recorder_node
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import String
+
+    node, clock, lines = stand_in_recorder(tmp_path, monkeypatch, 5.0)
+    take = recorder_node.RecorderNode._callback(node, '/chatter')
+    for i in range(3):
+        take(serialize_message(String(data=f'closed {i}')))
+    node.writer.roll()
+    take(serialize_message(String(data='open')))
+    waiting = [serialize_message(String(data=f'm{i}')) for i in range(4)]
+    full = OSError(errno.ENOSPC, 'No space left on device')
+
+    def write_until_full(topic: str, timestamp: int, data: bytes) -> None:
+        raise full
+
+    def close_on_a_full_disk() -> None:
+        raise full
+
+    if fails_in == 'drain':
+        monkeypatch.setattr(node.writer, 'write', write_until_full)
+    else:
+        monkeypatch.setattr(node.writer, 'close', close_on_a_full_disk)
+
+    def spin_once(timeout_sec: float) -> None:
+        if waiting:
+            take(waiting.pop(0))
+        clock.now += 1e-4
+
+    assert recorder_node.RecorderNode.on_exit(node, types.SimpleNamespace(spin_once=spin_once), 0) == 1
+    errors = [m for kind, m in lines if kind == 'error']
+    assert len(errors) == 1 and re.fullmatch(r'stopped: BagError: cannot write the bag .*bag \(OSError: \[Errno 28\] '
+                                             r'No space left on device\): is the disk full, or a file size limit '
+                                             r'reached\?', errors[0]), errors
+    assert lines[-1] == ('info', f'{tmp_path / "bag"}: kept the 3 messages of the 1 segment(s) closed before the error')
+    assert read_bag(tmp_path / 'bag').message_count == 3
 
 
 def test_spins_woken_by_guard_conditions_do_not_end_the_drain_while_the_readers_hold_messages(

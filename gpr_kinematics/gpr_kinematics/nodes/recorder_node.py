@@ -52,7 +52,7 @@ from ..ros.specs import node_specs
 from .conversions import message_class
 from .params import declare_parameters
 from .qos import is_latched, latched_qos, stream_qos, valid_topic_name
-from .runtime import EXIT_OK, GprNode, StoppedAtStartError, one_line, run, stop_requested
+from .runtime import EXIT_FAILED, EXIT_OK, GprNode, StoppedAtStartError, one_line, run, stop_requested
 
 NODE_NAME = 'recorder_node'
 #: What writing a segment raises when the disk is full or a file size limit is reached.
@@ -222,37 +222,48 @@ class RecorderNode(GprNode):
     def on_exit(self, executor: Executor, status: int) -> int:
         """Drain what DDS already delivered (the timers cancelled, until :data:`DRAIN_EMPTY_SPINS` spins in a row that
         do not wait take no message and the readers then hold none, at most ``drain_timeout`` s: a warning when that
-        ends it), close the bag and log
-        the counts per topic. After an error (status 1) the bag keeps the segments closed before it."""
+        ends it), close the bag and log the counts per topic. After an error (status 1), or a write that fails in the
+        drain or the close (a full disk), the bag keeps the segments closed before it (:func:`keep_closed`)."""
         if status != EXIT_OK:
-            kept = self.writer.closed_message_count
-            self.writer.abort(remove=kept == 0)
-            self.get_logger().info(f'{self.writer.path}: kept the {kept} messages of the {len(self.writer.files)} '
-                                   'segment(s) closed before the error' if kept else
-                                   f'{self.writer.path}: no segment was closed before the error; removed')
+            keep_closed(self.writer, self.get_logger())
             return status
         for timer in (getattr(self, 'timer', None), getattr(self, 'type_timer', None)):
             if timer is not None:   # a due timer took the spins: a recorder behind stopped with messages waiting
                 timer.cancel()
         limit = float(self.p['drain_timeout'])
         end, empty, start, drained = time.monotonic() + limit, 0, sum(self.received.values()), False
-        while not drained and time.monotonic() < end:
-            taken = sum(self.received.values())
-            executor.spin_once(timeout_sec=0.0)
-            empty = empty + 1 if sum(self.received.values()) == taken else 0
-            if empty >= DRAIN_EMPTY_SPINS:   # the readers hold nothing (a wait woken by a guard condition only: go on)
-                drained, empty = take_waiting(self.subs, end) == 0, 0
+        try:
+            while not drained and time.monotonic() < end:
+                taken = sum(self.received.values())
+                executor.spin_once(timeout_sec=0.0)
+                empty = empty + 1 if sum(self.received.values()) == taken else 0
+                if empty >= DRAIN_EMPTY_SPINS:   # the readers hold nothing (woken by a guard condition only: go on)
+                    drained, empty = take_waiting(self.subs, end) == 0, 0
+            self.writer.close()
+        except WRITE_ERRORS as exc:   # as a write failing while recording: one line, the closed segments kept
+            failed = exc if isinstance(exc, BagError) else self._write_failed(exc)
+            self.get_logger().error(f'stopped: {type(failed).__name__}: {one_line(failed)}')
+            keep_closed(self.writer, self.get_logger())
+            return EXIT_FAILED
         if not drained and limit > 0:   # a recorder behind its stream lost the rest without a word
             after = sum(self.received.values()) - start
             self.get_logger().warning(f'the drain ended at drain_timeout = {limit:g} s with messages still coming '
                                       f'({after} taken after the stop): the rest is not recorded; a longer '
                                       'drain_timeout waits for it')
-        self.writer.close()
         counts = ', '.join(f'{t} {self.writer.counts[t]}/{self.received[t]}' for t in self.received)
         self.get_logger().info(f'stopped: wrote {sum(self.writer.counts.values())} messages into {self.writer.path} '
                                f'in {len(self.writer.files)} file(s) (written/received per topic: {counts}; '
                                f'longest segment close {self.writer.max_close_time * 1e3:.1f} ms)')
         return status
+
+
+def keep_closed(writer: SegmentedBagWriter, logger: Any) -> None:
+    """After an error: drop the open segment and keep the bag's closed segments (the bag folder removed when none
+    was closed), saying which."""
+    kept = writer.closed_message_count
+    writer.abort(remove=kept == 0)
+    logger.info(f'{writer.path}: kept the {kept} messages of the {len(writer.files)} segment(s) closed before the '
+                'error' if kept else f'{writer.path}: no segment was closed before the error; removed')
 
 
 def main(args: Sequence[str] | None = None) -> int:
