@@ -1,8 +1,10 @@
 # gpr_kinematics: the two commands of the README are `make demo` and `make test`.
 #
 # `make setup` (idempotent, stamp files) creates .venv with the pinned core requirements and the pinned
-# ROS 2 Jazzy wheels (requirements-ros.txt; --no-compile: Python writes the bytecode of what it imports when it first
-# does, about 20 CPU-s less than pip compiling every module of every wheel), repairs the wheels' exported CMake files (ros_env fix-wheels)
+# ROS 2 Jazzy wheels (requirements-ros.txt; pip compiles their bytecode, and compileall the package's: where
+# PYTHONDONTWRITEBYTECODE is set, as on the machines the tests were timed on, nothing else would, and every node a ROS
+# test starts compiled what it imports again: 0.2 s more a node for the package, a quarter more CPU time for the ROS
+# runs without pip's), repairs the wheels' exported CMake files (ros_env fix-wheels)
 # and runs `colcon build` at the root (colcon_defaults.yaml: gpr_kinematics and gpr_interfaces, symlink install,
 # so the nodes run the working tree's code; plus fallback/tf2_msgs where no tf2_msgs is installed) into
 # install/. Commands that need ROS run through `python -m gpr_kinematics.ros.env exec --`, which sets the
@@ -49,9 +51,10 @@ $(STAMP): requirements.txt requirements-ros.txt requirements-test.txt gpr_kinema
 	@command -v cc >/dev/null || { echo 'make setup: no C compiler (apt-get install gcc)' >&2; exit 1; }
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet --no-compile -r requirements.txt -r requirements-ros.txt
-	$(PY) -m pip install --quiet --no-compile --no-deps -r requirements-test.txt
+	$(PY) -m pip install --quiet -r requirements.txt -r requirements-ros.txt
+	$(PY) -m pip install --quiet --no-deps -r requirements-test.txt
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
+	$(PY) -m compileall -q gpr_kinematics/gpr_kinematics
 	$(PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STAMP)
 
@@ -70,9 +73,10 @@ $(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt req
 	awk -F'==' 'NR == FNR { if (NF == 2 && $$0 !~ /^#/) pin[tolower($$1)] = $$0; next } \
 		{ name = tolower($$1); print ((name in pin) ? pin[name] : $$0) }' \
 		requirements-stock.txt requirements.txt > $(STOCK_VENV)/requirements.txt
-	$(STOCK_PY) -m pip install --quiet --no-compile -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
-	$(STOCK_PY) -m pip install --quiet --no-compile --no-deps -r requirements-test.txt
+	$(STOCK_PY) -m pip install --quiet -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
+	$(STOCK_PY) -m pip install --quiet --no-deps -r requirements-test.txt
 	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
+	$(STOCK_PY) -m compileall -q gpr_kinematics/gpr_kinematics
 	$(STOCK_PY) -m gpr_kinematics.ros.env fix-wheels
 	touch $(STOCK_STAMP)
 
