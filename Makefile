@@ -94,8 +94,9 @@ setup-stock: $(STOCK_COLCON_STAMP)
 # runs over two cores (two at a time, the stock run whole, left a core idle while its ROS tests waited). The first
 # part of the pinned rest (calibration, bags, safety, lint and types) starts when the stock ROS tests end, the second
 # (the rest, with the slip bound's 100 kHz scans: ~85 s) when the next run ends; measured in a fresh-clone run of
-# 2026-12-06 before the scans moved: setup 200 s, the stock ROS tests 476, the stock rest 557, the pinned ROS tests
-# 691, the parts 552 and 324 (the first ending 150 s after the rest), 1223 s in all.
+# 2026-12-07 (wall and CPU seconds): setup 167 and 306, the stock ROS tests 290 and 144, the stock rest 338 and 285,
+# the pinned ROS tests 663 and 285, the parts 509 and 409, 493 and 375 (the first ending 32 s before the second),
+# 998 s in all.
 PINNED_HALF := $(filter-out test/test_calibration_fit.py test/test_safety_slip_bound.py,$(wildcard test/test_calibration_*.py test/test_ros_*.py \
 	test/test_bag_*.py test/test_safety_*.py test/test_lint.py test/test_types.py test/test_layout.py))
 PINNED_NOT_ROS = $(call DOMAIN_OF,$(1)) $(PY) -m pytest -q -p no:cacheprovider --durations=10 -m 'not ros'
