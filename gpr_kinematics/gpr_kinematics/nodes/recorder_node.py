@@ -72,6 +72,8 @@ def take_waiting(subscriptions: Sequence[Any], end: float) -> int:
     stopped after three spins woken by guard conditions with 27 messages a topic waiting."""
     taken = 0
     for sub in subscriptions:
+        # a callback of (message, info) is given both, as by the executor (it raised a TypeError)
+        given = 2 if getattr(sub, '_callback_type', None) is Subscription.CallbackType.WithMessageInfo else 1
         while time.monotonic() < end:
             try:
                 with sub.handle:
@@ -80,9 +82,7 @@ def take_waiting(subscriptions: Sequence[Any], end: float) -> int:
                 break
             if got is None:
                 break
-            # a callback of (message, info) is given both, as by the executor (it raised a TypeError)
-            info = getattr(sub, '_callback_type', None) is Subscription.CallbackType.WithMessageInfo
-            sub.callback(*(got if info else got[:1]))
+            sub.callback(*got[:given])
             taken += 1
     return taken
 
