@@ -1055,3 +1055,29 @@ def test_a_goal_waiting_for_its_stamp_moves_the_lagging_joints_as_its_check_did(
         clock.nanoseconds = 10 * ns + k * ns // 10
         idle()
     assert node.command is None and np.array_equal(node.actual, command)
+
+
+@pytest.mark.slow
+def test_a_second_server_of_the_action_is_warned_of_and_its_end_said() -> None:
+    """Two simulators in one namespace both ran every goal (a goal reaches every server of an action) without a word:
+    each now warns once of the other, a simulator in another namespace does not, and the first says when the second
+    is gone (nodes/foreign_states.OtherServers)."""
+    twin = '/gpr_twin'
+    a = start('robot_simulator_node', '-r', '__node:=sim_a', namespace=twin)
+    b = start('robot_simulator_node', '-r', '__node:=sim_b', namespace=twin)
+    c = start('robot_simulator_node', '-r', '__node:=sim_c', namespace='/gpr_single')
+    action = re.escape(f'{twin}/{ACTION}')
+    try:
+        for p in (a, b):
+            wait_for_log(p, rf'1 other server\(s\) of {action} on the ROS graph: a goal sent there runs on each '
+                            r'\(another robot_simulator_node or controller in this namespace\?\); allowed: one server '
+                            r'per action')
+        wait_for_log(c, rf'serving /gpr_single/{ACTION}')
+        time.sleep(2.5)   # c counted its action's servers since a and b were found
+        assert b.stop() == 0, b.output()
+        wait_for_log(a, rf'no other server of {action} is left')
+    finally:
+        for p in (a, b, c):
+            p.stop()
+    assert a.output().count('other server(s)') == 1, a.output()
+    assert 'other server' not in c.output(), c.output()

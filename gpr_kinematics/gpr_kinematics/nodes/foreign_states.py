@@ -1,5 +1,6 @@
-"""What ``robot_simulator_node`` says of another publisher's ``joint_states`` it ignores: the refusal of a state
-(:func:`outside`) and its warnings, throttled per refusal (:class:`RefusalLog`)."""
+"""What ``robot_simulator_node`` says of other nodes: of another publisher's ``joint_states`` it ignores, the refusal
+of a state (:func:`outside`) and its warnings, throttled per refusal (:class:`RefusalLog`); of another server of its
+action, a warning (:class:`OtherServers`)."""
 from __future__ import annotations
 
 import re
@@ -7,6 +8,7 @@ import time
 from typing import Any
 
 import numpy as np
+from rclpy.clock import Clock, ClockType
 
 from ..core.config import GprConfig
 from ..core.forward import forward
@@ -17,6 +19,8 @@ from .runtime import one_line
 
 #: Shortest time [s] between two warnings of one refusal (the same again; a different one is logged at once).
 REFUSAL_PERIOD = 5.0
+#: How often [s, steady time] the servers of the simulator's action are counted on the ROS graph.
+SERVER_CHECK = 2.0
 #: How many refusals' last warnings are remembered (the oldest forgotten: a stream of ever new ones costs no memory).
 REFUSALS_KEPT = 64
 # A number in a refusal's text (not a digit of a name: arm1_elbow, rod_2): the key leaves the numbers out.
@@ -59,3 +63,27 @@ def outside(joints: ControllerJoints, cfg: GprConfig, state: Any) -> str:
         return (f'{", ".join(j.names[:3])}: {one_line(exc)}'
                 + ('' if 'allowed:' in str(exc) else '; allowed: rods within the tilt limit'))
     return ''
+
+
+class OtherServers:
+    """Warns while another node serves the simulator's action too: a client's goal reaches every server of an action,
+    so two simulators in one namespace both ran each goal, and took each other's states, without a word. The servers
+    of the action's ``send_goal`` service are counted every :data:`SERVER_CHECK` s (``count_services``); said once
+    when another appears, and when the last other is gone."""
+
+    def __init__(self, node: Any, action: str) -> None:
+        self.node, self.action, self.others = node, action, 0
+        node.create_timer(SERVER_CHECK, self.check, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def check(self) -> int:
+        """The number of other servers of the action now (a warning when there were none)."""
+        others = max(int(self.node.count_services(f'{self.action}/_action/send_goal')) - 1, 0)
+        if others and not self.others:
+            self.node.get_logger().warning(
+                f'{others} other server(s) of {self.action} on the ROS graph: a goal sent there runs on each (another '
+                'robot_simulator_node or controller in this namespace?); allowed: one server per action (start the '
+                'other in a namespace of its own, -r __ns:=/robot2)')
+        elif self.others and not others:
+            self.node.get_logger().info(f'no other server of {self.action} is left')
+        self.others = others
+        return others

@@ -61,7 +61,7 @@ from ..robot.servo import servo, violation
 from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
-from .foreign_states import RefusalLog, outside
+from .foreign_states import OtherServers, RefusalLog, outside
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, joint_states_subscription, release_request, stream_qos
 from .runtime import GprNode, deliver_results, one_line, run
@@ -158,7 +158,7 @@ class RobotSimulatorNode(GprNode):
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT, feedback_pub_qos_profile=qos,
                                    **action_server_options())
-        cell = self.clearance
+        self.other_servers, cell = OtherServers(self, self.action_name()), self.clearance
         self.get_logger().info(f'serving {self.action_name()} (control_msgs/action/FollowJointTrajectory) for '
                                f'{n} joints ({", ".join(self.joints.names)}) of robot {self.robot.name} at '
                                f'{p["rate"]} Hz; joint_states held at {p["idle_rate"]} Hz while idle; '
