@@ -457,14 +457,14 @@ def test_a_full_disk_at_the_stop_keeps_the_closed_segments_and_exits_1(tmp_path:
     waiting = [serialize_message(String(data=f'm{i}')) for i in range(4)]
     full = OSError(errno.ENOSPC, 'No space left on device')
 
-    def write_until_full(topic: str, timestamp: int, data: bytes) -> None:
+    def write_on_a_full_disk(topic: str, timestamp: int, data: bytes) -> None:
         raise full
 
     def close_on_a_full_disk() -> None:
         raise full
 
     if fails_in == 'drain':
-        monkeypatch.setattr(node.writer, 'write', write_until_full)
+        monkeypatch.setattr(node.writer, 'write', write_on_a_full_disk)
     else:
         monkeypatch.setattr(node.writer, 'close', close_on_a_full_disk)
 
