@@ -514,9 +514,17 @@ def test_a_program_whose_wafer_slips_is_not_written_or_sent_as_a_trajectory(caps
                            '--samples', str(tmp_path / 's.csv'), '--trajectory', str(tmp_path / 't.yaml'))
     assert (status, out, err) == (1, '', f'gpr program export: error: {why}')
     assert sorted(p.name for p in tmp_path.iterdir()) == ['program.yaml', 'robot.yaml']
-    for json_option in ([], ['--json']):   # refused before ROS is looked for: no SendResult
-        status, out, err = run(capsys, 'program', 'send', str(program), '--timeout', '0.1', *json_option)
-        assert (status, out, err) == (1, '', f'gpr program send: error: {why}')
+    status, out, err = run(capsys, 'program', 'send', str(program), '--timeout', '0.1')
+    assert (status, out, err) == (1, '', f'gpr program send: error: {why}')
+    # with --json its SendResult too (it printed nothing): status unsafe, the reason, the program's trajectory
+    status, out, err = run(capsys, 'program', 'send', str(program), '--timeout', '0.1', '--json', '--namespace', 'r7')
+    result = json.loads(out)
+    assert (status, err, out.count('\n')) == (1, f'gpr program send: error: {why}', 1)
+    assert (result['status'], result['failure'], result['lead_in'], result['error_code'], result['feedback']) == (
+        'unsafe', why.rstrip('\n'), None, 0, 0)
+    assert result['action'] in ('/r7/joint_trajectory_controller/follow_joint_trajectory',   # resolved under ROS
+                                'joint_trajectory_controller/follow_joint_trajectory')   # as given without
+    assert (result['points'], len(result['joint_names'])) == (5960, 10) and result['duration'] > 54.683
 
 
 @pytest.mark.slow

@@ -5,8 +5,9 @@ The program's trajectory at ``--rate`` (checked as ``gpr program export --trajec
 robot is (``joint_states``), sent to the action; its progress and result reported. Exit 0 when the goal succeeded, 1
 when the server refused or aborted it, none answered, no joint states came, another robot is there or the robot
 cannot start where it is (one line on stderr saying which; with ``--json`` the :class:`SendResult` on stdout too, its
-``failure`` that line), 1 too for a program ``gpr program check`` finds not safe (refused before ROS is looked for, as
-``export --trajectory`` refuses it: one ``error:`` line, nothing on stdout), 2 on bad input (a ``--rate`` at which the
+``failure`` that line), 1 too for a program ``gpr program check`` finds not safe (refused before any node is made, as
+``export --trajectory`` refuses it: one ``error:`` line; with ``--json`` the :class:`SendResult` of status
+``unsafe``), 2 on bad input (a ``--rate`` at which the
 trajectory is refused and a higher one helps among it). Needs the ``ros`` extra, in a ROS environment.
 """
 from __future__ import annotations
@@ -19,7 +20,7 @@ from types import ModuleType
 from typing import TYPE_CHECKING
 
 from ..core.messages import FOLLOW_JOINT_TRAJECTORY, RosMessage, Topic
-from ..errors import InputError, RobotStateError
+from ..errors import InputError, RobotStateError, UnsafeError
 from ..inputs.resources import PROGRAMS
 from .options import number, program_plan, robot_options, sample_rate, shipped
 from .output import emit_json
@@ -40,7 +41,8 @@ class SendResult:
     """What ``gpr program send`` did: the program, robot and action (its full name, resolved in the namespace, as the
     text output prints it); the trajectory sent (points, duration [s], the lead-in from where the robot was [s]; before
     a goal was made, the program's trajectory and no lead-in, None); how it ended (``status``: the goal's, or
-    ``not_sent`` when it could not be sent, ``no_result`` when no answer or result came; the result's ``error_code``,
+    ``not_sent`` when it could not be sent, ``unsafe`` when ``gpr program check`` finds the program not safe,
+    ``no_result`` when no answer or result came; the result's ``error_code``,
     its name and ``error_string``), the feedback received, and ``failure``: the line on stderr of a send that failed
     before the goal's outcome ('' otherwise)."""
 
@@ -149,16 +151,45 @@ def _failed(args: argparse.Namespace, plan: ProgramPlan, action: str, traj: Join
     return 1
 
 
-def _cmd_send(args: argparse.Namespace) -> int:
-    from ..robot.trajectory import lead_in, program_trajectory
+def _check_times(args: argparse.Namespace) -> None:
+    """``--timeout``, ``--progress`` and ``--rate`` within their bounds (:class:`~gpr_kinematics.errors.InputError`)."""
     if not 0.0 < args.timeout <= 3600.0:
         raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
     if not 0.0 < args.progress <= 3600.0:  # NaN printed nothing, 0 or less a line per feedback
         raise InputError(f'--progress = {args.progress!r} s; allowed: 0 < progress <= 3600 s')
     sample_rate(args.rate)
+
+
+def _refused_as_unsafe(args: argparse.Namespace, plan: ProgramPlan, traj: JointTrajectory, exc: UnsafeError) -> int:
+    """A program ``gpr program check`` finds not safe, with ``--json``: the line ``main`` prints for an
+    :class:`~gpr_kinematics.errors.UnsafeError` and the :class:`SendResult` of status ``unsafe``, its ``failure`` the
+    reason; the action's full name where a ROS environment is found (else the name as given); status 1."""
+    from ..errors import GprError, one_line
+    try:
+        _ros_modules()
+        action = _ros_names(args)[1]
+    except (GprError, ImportError) as err:
+        if isinstance(err, InputError):   # a bad --action or --namespace: bad input first, as without the refusal
+            raise
+        action = args.action
+    reason = one_line(str(exc))
+    print(f'gpr program send: error: {reason}', file=sys.stderr)
+    emit_json(SendResult(plan.program.source, plan.robot.name, action, list(traj.joint_names), len(traj),
+                         traj.duration, None, 'unsafe', 0, '', '', 0, reason))
+    return 1
+
+
+def _cmd_send(args: argparse.Namespace) -> int:
+    from ..robot.trajectory import lead_in, program_trajectory
+    _check_times(args)
     _, plan = program_plan(args, args.rate)
     traj = program_trajectory(plan, args.rate)
-    as_a_controller_takes_it(plan, traj, args.rate, 'send')
+    try:
+        as_a_controller_takes_it(plan, traj, args.rate, 'send')
+    except UnsafeError as exc:
+        if not args.json:
+            raise
+        return _refused_as_unsafe(args, plan, traj, exc)
     tc = _ros_modules()
     joint_states, action = _ros_names(args)
     with tc.GprClient(SEND_NODE, namespace=args.namespace) as client:
