@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -456,3 +457,28 @@ def test_a_best_effort_joint_states_publisher_is_named_or_heard(ros_environment)
         assert c.spin_until(lambda: (pub.publish(JointState(name=names, position=rods)) or
                                      any(abs(v - z) < 1e-12 for v in platform_z())), 10), sp.output()
         assert 'cannot match' not in sp.output()
+
+
+@pytest.mark.slow
+def test_a_second_state_publisher_with_the_same_frame_prefix_is_warned_of(ros_environment):
+    """Two state publishers in two namespaces with one frame_prefix (two robots, the prefix forgotten) put two robots
+    on the same frames, and tf alternated between them without a word: each now warns once that another publisher
+    sends its frames on /tf_static, naming it; one with a prefix of its own does not
+    (nodes/foreign_states.OtherFramePublishers)."""
+    a = start('state_publisher_node', namespace='/sp_twin_a', frame_prefix='twin/')
+    b = start('state_publisher_node', namespace='/sp_twin_b', frame_prefix='twin/')
+    c = start('state_publisher_node', namespace='/sp_single', frame_prefix='single/')
+    try:
+        for p, other in ((a, '/sp_twin_b'), (b, '/sp_twin_a')):
+            m = wait_for_log(p, r"another publisher sends this robot's frames \((twin/[^)]*)\) on /tf_static \(of "
+                                r'its publishers: ([^)]*)\): a second state publisher with the same frame_prefix',
+                             timeout=60)
+            assert m.group(1).startswith('twin/') and f'{other}/state_publisher_node' in m.group(2).split(', '), m[0]
+            assert '/sp_single/state_publisher_node' in m.group(2).split(', ')   # every other publisher is named
+        wait_for_log(c, r'publishing robot_description')
+        time.sleep(2.0)   # a and b found c as a publisher: c had their latched transforms in the same while
+    finally:
+        for p in (a, b, c):
+            p.stop()
+    assert a.output().count('another publisher sends') == 1, a.output()
+    assert 'another publisher sends' not in c.output(), c.output()

@@ -1,6 +1,7 @@
-"""What ``robot_simulator_node`` says of other nodes: of another publisher's ``joint_states`` it ignores, the refusal
-of a state (:func:`outside`) and its warnings, throttled per refusal (:class:`RefusalLog`); of another server of its
-action, a warning (:class:`OtherServers`)."""
+"""What the nodes say of other nodes: ``robot_simulator_node`` of another publisher's ``joint_states`` it ignores, the
+refusal of a state (:func:`outside`) and its warnings, throttled per refusal (:class:`RefusalLog`), and of another
+server of its action, a warning (:class:`OtherServers`); ``state_publisher_node`` of another publisher of its robot's
+frames, a warning (:class:`OtherFramePublishers`)."""
 from __future__ import annotations
 
 import re
@@ -9,12 +10,14 @@ from typing import Any
 
 import numpy as np
 from rclpy.clock import Clock, ClockType
+from tf2_msgs.msg import TFMessage
 
 from ..core.config import GprConfig
 from ..core.forward import forward
 from ..errors import GprError
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.controller import ControllerJoints, beyond_words
+from .qos import latched_qos
 from .runtime import one_line
 
 #: Shortest time [s] between two warnings of one refusal (the same again; a different one is logged at once).
@@ -87,3 +90,35 @@ class OtherServers:
             self.node.get_logger().info(f'no other server of {self.action} is left')
         self.others = others
         return others
+
+
+class OtherFramePublishers:
+    """Warns once when another publisher sends the robot's fixed frames on ``/tf_static``: two state publishers with
+    one ``frame_prefix`` (two robots in two namespaces, the prefix forgotten) put two robots on the same frames, and
+    tf alternated between them without a word. Each state publisher stamps its fixed transforms with its start time
+    and hears ``/tf_static`` latched: a transform of one of its frames under another stamp is another's (or a replayed
+    recording's). Two started within the same clock tick (a simulated clock at 0) are not told apart."""
+
+    def __init__(self, node: Any, static: Any, topic: str = '/tf_static') -> None:
+        self.node, self.topic, self.warned = node, topic, False
+        self.mine = {(t.child_frame_id, t.header.stamp.sec, t.header.stamp.nanosec) for t in static.transforms}
+        self.frames = {t.child_frame_id for t in static.transforms}
+        node.create_subscription(TFMessage, topic, self.heard, latched_qos(depth=100))  # tf2's static listener's
+
+    def heard(self, msg: Any) -> list[str]:
+        """This robot's frames in ``msg`` that another publisher sent (a warning the first time there are any)."""
+        theirs = sorted({t.child_frame_id for t in msg.transforms if t.child_frame_id in self.frames
+                         and (t.child_frame_id, t.header.stamp.sec, t.header.stamp.nanosec) not in self.mine})
+        if theirs and not self.warned:
+            self.warned = True
+            me = (self.node.get_name(), self.node.get_namespace())
+            others = sorted({f'{e.node_namespace.rstrip("/")}/{e.node_name}'
+                             for e in self.node.get_publishers_info_by_topic(self.topic)
+                             if (e.node_name, e.node_namespace) != me})
+            named = ', '.join(theirs[:3]) + (f' and {len(theirs) - 3} more' if len(theirs) > 3 else '')
+            self.node.get_logger().warning(
+                f'another publisher sends this robot\'s frames ({named}) on {self.topic} (of its publishers: '
+                f'{", ".join(others) or "one gone since"}): a second state publisher with the same frame_prefix, or '
+                'a replayed recording of them; tf takes either, and /tf alternates between two robots; allowed: '
+                'one state publisher per frame_prefix (give each robot its own, e.g. frame_prefix:=r2/)')
+        return theirs

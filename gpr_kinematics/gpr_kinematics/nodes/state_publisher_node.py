@@ -26,7 +26,8 @@ arrive the held state is published again at ``idle_rate``, stamped with the curr
 keeps ``robot_state_publisher`` fed, and at once to a /tf subscription that matches meanwhile (a publisher-matched
 event): so ``/tf`` has the whole robot before the first motion, between motions and after the last, a listener
 getting it as soon as DDS discovery connects them (docs/ros.md, "tf at start-up"). ``frame_prefix`` (``r1/``)
-prefixes every frame, as robot_state_publisher's does.
+prefixes every frame, as robot_state_publisher's does; another publisher of the robot's frames on ``/tf_static`` (a
+second state publisher with the same prefix) is warned of once (:class:`~.foreign_states.OtherFramePublishers`).
 
 A robot_state_publisher cannot do this from the URDF alone: the platform closes an overconstrained loop (three rods,
 one platform), so its pose is not a function of a joint tree; here it is the kinematics' answer for the rods.
@@ -59,6 +60,7 @@ from ..ros.specs import STATE_PUBLISHER, check_frame_names, check_frame_prefix
 from ..safety.cell import load_cell
 from ..safety.markers import cell_marker_array
 from .conversions import make_message, message_class, transform_msg
+from .foreign_states import OtherFramePublishers
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import joint_states_subscription, latched_qos, stream_qos
 from .runtime import GprNode, one_line, run
@@ -102,6 +104,7 @@ class StatePublisherNode(GprNode):
         static = [_stamped(now, j.parent, j.child, *self.model.transform(j.name))
                   for j in self.model.joints if j.kind == 'fixed']
         self.pub_static.publish(TFMessage(transforms=static))
+        self.other_frames = OtherFramePublishers(self, TFMessage(transforms=static))
         self.cell = load_cell(p['cell_file']).in_frame(robot.world_frame) if p['cell_file'] else None
         if self.cell is not None:
             self.pub_cell = self.create_publisher(message_class('visualization_msgs/msg/MarkerArray'), Topic.CELL,
