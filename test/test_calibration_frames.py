@@ -463,3 +463,38 @@ def test_a_closed_form_registration_that_misses_is_refined_before_the_data_are_j
     k = turned.n_inner
     assert np.all(np.abs(e_p) < 3.5 * res.standard_error[k:k + 3]) and np.all(
         np.abs(e_r) < 3.5 * res.standard_error[k + 3:k + 6])
+
+
+def test_registration_of_a_fit_without_covariance_and_of_rounding_ties(setting):
+    """A fit whose model could not be evaluated where it ended has no covariance (0 x 0): the registration indexed
+    into it (an IndexError, a traceback of gpr calibrate for conjugated quaternions); its derived parameters now
+    have no standard error (NaN), not 'held'. A derived parameter tied to a fitted one only by a rounding's 1e-17
+    beside a held one's 1 read '+- 3.06e-14 um' (a trial's 5 rows): it follows the held one, so it is held; a real
+    tie of 1e-3 is not."""
+    import copy
+    cfg, core, Q, true_model, inner, theta = setting
+    meas = synthetic_measurements(true_model, theta, Q, 3e-6, 2e-5, seed=11)
+    model = measuring_model(core, meas, 'tracker')
+    res = identify(model, meas, frame='tracker')
+    reg = registration(model, res.estimate, res.standard_error, res.fitted, np.zeros((0, 0)), 'tracker')
+    assert reg.derived and all(math.isnan(s) for _, s, _ in reg.derived.values())
+    statuses = {k: v['status'] for k, v in reg.as_dict()['derived'].items()}   # the joints' follow held ones only
+    assert {k for k, v in statuses.items() if v == 'derived'} == {'rod2_x', 'rod3_x', 'rod3_y', 'rod3_offset',
+                                                                   'rod3_ux', 'rod3_uy'}, statuses
+    assert reg.held == {'joint2_x', 'joint3_x', 'joint3_y'} and '(rod3_x -0.04' in reg.lines()[-1]
+    assert ' rod2_x -0.04' in reg.lines()[-1] and ' +- nan um' in reg.lines()[-1]
+    inner_fitted = res.fitted[res.fitted < model.n_inner]
+    held_col, fit_col = int(inner_fitted[0]), int(inner_fitted[1])
+    fitted = res.fitted[res.fitted != held_col]
+    keep = np.flatnonzero(res.fitted != held_col)
+    cov = res.covariance[np.ix_(keep, keep)]
+    for tie, held in ((1e-17, True), (1e-3, False)):
+        twin = copy.copy(model)
+        twin.follow = model.follow.copy()
+        twin.follow[0] = 0.0
+        twin.follow[0, held_col], twin.follow[0, fit_col] = 1.0, tie
+        reg = registration(twin, res.estimate, res.standard_error, fitted, cov, 'tracker')
+        name = next(iter(reg.derived))
+        assert (name in reg.held) is held, (tie, reg.derived[name])
+        assert math.isnan(reg.derived[name][1]) is held
+        assert ('(held: it follows held parameters)' in reg.lines()[-1].split(name, 1)[1][:60]) is held

@@ -50,6 +50,9 @@ Array = NDArray[np.float64]
 #: A-priori standard uncertainty of a frame's position [m] and rotation [rad] after the closed-form registration.
 FRAME_SCALES = {'m': 1e-2, 'rad': 1e-2}
 AXES = ('x', 'y', 'z', 'rx', 'ry', 'rz')
+#: A coefficient of ``follow`` below this share of its row's largest is a rounding's, not a tie of a derived
+#: parameter to a fitted one (:func:`registration`).
+FOLLOW_ROUNDING = 1e-9
 #: Alternations of the points' registration (:func:`initial_frames`).
 POINT_ALTERNATIONS = 20
 
@@ -372,6 +375,8 @@ class Registration:
     derived: dict[str, tuple[float, float, str]]
     points: bool = False
     derived_bias: dict[str, tuple[float, float, str]] = field(default_factory=dict)
+    #: The derived parameters that follow held parameters only (held too: no standard error).
+    held: frozenset[str] = frozenset()
 
     def as_dict(self) -> dict[str, object]:
         def se(a: Array | None) -> list[float | None] | None:
@@ -383,7 +388,7 @@ class Registration:
         return {'frame': self.frame, 'base': self.base.as_dict() | {'standard_error': se(self.base_se)},
                 'target': self.target.as_dict() | {'standard_error': se(self.target_se)}, 'datum': self.datum,
                 'derived': {k: {'value': v, 'standard_error': s if math.isfinite(s) else None, 'unit': u,
-                                'status': 'derived' if math.isfinite(s) else 'held'} | bias(k)
+                                'status': 'held' if k in self.held else 'derived'} | bias(k)
                             for k, (v, s, u) in self.derived.items()}}
 
     def _bias(self, name: str, unit: str) -> str:
@@ -406,8 +411,8 @@ class Registration:
                 else ' (a point: no orientation)' if self.points else ' (orientation given)'
             out.append(f'{what}: position ({p}) m +- ({sp}) um, rpy ({r}) rad{sr}')
         if self.datum:
-            fixed = ', '.join((f'{k} {v:+.9g} +- {s * 1e6:.3g} {"um" if u == "m" else "urad"}' if math.isfinite(s)
-                               else f'{k} {v:+.9g} (held: it follows held parameters)') + self._bias(k, u)
+            fixed = ', '.join((f'{k} {v:+.9g} (held: it follows held parameters)' if k in self.held
+                               else f'{k} {v:+.9g} +- {s * 1e6:.3g} {"um" if u == "m" else "urad"}') + self._bias(k, u)
                               for k, (v, s, u) in self.derived.items())
             out.append(f'datum: {self.datum} ({fixed})')
         return out
@@ -424,23 +429,30 @@ def registration(model: FramedModel, estimate: Array, standard_error: Array, fit
     def se(stem: str, on: bool) -> Array | None:
         return np.array([standard_error[names.index(n)] for n in names if n.startswith(stem)]) if on else None
 
-    derived, derived_bias = {}, {}
+    derived, derived_bias, held = {}, {}, frozenset[str]()
     if model.dependent.size:
         full = model.inner_theta(np.asarray(estimate, dtype=float)[None])[0]
         cov = np.zeros((model.n_inner, model.n_inner))
         inner = fitted[fitted < model.n_inner]
         k = np.flatnonzero(fitted < model.n_inner)
-        cov[np.ix_(inner, inner)] = covariance[np.ix_(k, k)]
+        if covariance.shape == (fitted.size, fitted.size):
+            cov[np.ix_(inner, inner)] = covariance[np.ix_(k, k)]
+        else:   # a fit whose model cannot be evaluated where it ended has no covariance (an IndexError: a traceback)
+            cov[np.ix_(inner, inner)] = math.nan
         var = np.einsum('di,ij,dj->d', model.follow, cov, model.follow)
-        # A derived parameter that follows held parameters only is held too: no standard error (it read +- 0)
-        moves = np.any(model.follow[:, inner] != 0.0, axis=1) if inner.size else np.zeros(var.shape, dtype=bool)
+        # A derived parameter that follows held parameters only is held too: no standard error (it read +- 0, and
+        # +- 3e-14 um where a coefficient of a fitted one was a rounding's 1e-17 beside the held ones' 1)
+        F = np.abs(model.follow)
+        ties = F[:, inner] > FOLLOW_ROUNDING * np.max(F, axis=1, initial=0.0)[:, None]
+        moves = np.any(ties, axis=1) if inner.size else np.zeros(var.shape, dtype=bool)
         ps = model.inner.parameters
         derived = {ps[int(j)].name: (float(full[j]), float(np.sqrt(max(v, 0.0))) if m else math.nan, ps[int(j)].unit)
                    for j, v, m in zip(model.dependent, var, moves, strict=True)}
+        held = frozenset(name for name, m in zip(derived, moves, strict=True) if not m)
         if bias is not None:   # d theta_D / d theta: follow on the inner coordinates, nothing on the frames'
             G = np.hstack([model.follow, np.zeros((model.dependent.size, len(names) - model.n_inner))])
             worst, sd, source = bias.of(G)
             derived_bias = {name: (float(b), float(s), src)
                             for name, b, s, src in zip(derived, worst, sd, source, strict=True)}
     return Registration(frame, base, se('base_', model.fit_base), target, se('target_', model.fit_target is not None),
-                        model.datum_text, derived, model.points, derived_bias)
+                        model.datum_text, derived, model.points, derived_bias, held)
