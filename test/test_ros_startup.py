@@ -168,6 +168,18 @@ def test_a_prefix_whose_frames_break_the_frame_name_rule_is_refused(exe, prefix,
                           rf'{100 - len(longest)} characters \({longest}: ')
 
 
+@pytest.mark.parametrize('exe, frame', [('state_publisher_node', 'world'), ('trajectory_node', 'world'),
+                                        ('trajectory_node', 'arm1_wafer')])
+def test_a_base_frame_named_like_another_frame_of_the_robot_is_refused(exe, frame):
+    """trajectory_node started with base_frame:=world and labelled the platform's poses (gpr_base coordinates)
+    world, beside wafer poses in the real world frame, 0.9 m apart in the example robot; the state publisher refused
+    it: both do now, with one line."""
+    status, out = _run(exe, '--ros-args', '-p', f'base_frame:={frame}', timeout=30)
+    assert_one_error_line(out, status, 2, rf"cannot start: base_frame = '{frame}' is the name of another frame of "
+                          r'robot example_dual_arm \(its world, rods, arms, blades and wafers\); allowed: a frame of '
+                          'its own')
+
+
 @pytest.mark.parametrize('exe', ['kinematics_node', 'trajectory_node'])
 def test_a_prefix_too_long_for_the_robots_world_frame_is_refused(exe, tmp_path):
     """Both nodes name ``prefix + the robot's world frame`` (a service's world_frame, a stream's header): with a world

@@ -71,6 +71,7 @@ from ..core.messages import DEFAULT_FRAMES, NS_PER_S, Service, Topic, geometry_t
 from ..errors import ConfigError, GprError
 from ..robot.markers import marked, marker_array
 from ..robot.program import RobotProgram, load_any_program, program_robot
+from ..robot.urdf import robot_urdf
 from ..ros.specs import TRAJECTORY, check_frame_names, check_frame_prefix
 from ..ros.stream_limits import loop_refusal, sweep_beyond_rod_limits
 from ..ros.streams import (
@@ -131,6 +132,7 @@ class TrajectoryNode(GprNode):
         params = ConfigParameters(self, read_only=True,
                                   robot=declare_robot(self, robot_program.robot if robot_program else None))
         self.cfg, self.robot = params.config, params.robot
+        robot_urdf(self.robot, p['base_frame'])  # a base_frame naming another of the robot's frames: refused
         frames = (p['base_frame'], DEFAULT_FRAMES[0], self.robot.world_frame)   # and 'world'
         self.prefix = check_frame_prefix(p['frame_prefix'], frames)
         self.base_frame = self.prefix + p['base_frame']
