@@ -218,8 +218,12 @@ class Gate:
         return all(c.passed for c in self.checks)
 
     def message(self) -> str:
-        """The failed checks in one sentence each, then the checks not judged (empty when it passed)."""
-        return '' if self.passed else ' '.join(c.detail for c in self.checks if not c.passed or not c.judged)
+        """The failed checks in one sentence each, then the checks not judged (empty when it passed): a check not
+        judged led the arm gate's line (``FAILED: noise chi square: ...``, which passed) before the one that failed."""
+        if self.passed:
+            return ''
+        return ' '.join([c.detail for c in self.checks if not c.passed]
+                        + [c.detail for c in self.checks if c.passed and not c.judged])
 
     def as_dict(self) -> dict[str, Any]:
         return {'passed': self.passed,
