@@ -109,3 +109,19 @@ def test_every_row_off_in_a_registered_frame_names_no_wrong_row(capsys, tmp_path
                            str(tmp_path / 'x.yaml'), '--no-progress')
     assert status == 2 and err.count('\n') == 1, err
     assert 'wrong or mismeasured' not in err and 'another frame' not in err and '--target' not in err, err
+
+
+@pytest.mark.slow
+def test_a_rod_swap_in_a_registered_frame_names_every_swap_it_reads_as(capsys, tmp_path):
+    """The worked example's tracker file with q1 and q3 swapped was told "columns q1 and q2 swapped": where the fit
+    registers the frame, a turn of 120 deg about the rods relabels them, so every swap of two reads alike (within
+    twice the best's error); the hint names them all and why."""
+    path = tracker_rows(tmp_path, None)
+    text = path.read_text(encoding='utf-8')
+    path.write_text(re.sub(r'^q1,q2,q3,', 'q3,q2,q1,', text, flags=re.M), encoding='utf-8')
+    status, out, err = run(capsys, 'calibrate', str(path), '--frame', 'tracker', '--output',
+                           str(tmp_path / 'x.yaml'), '--no-progress')
+    assert status == 2 and err.count('\n') == 1 and out == '', err
+    assert ('the poses fit this machine with columns q1 and q2, or q1 and q3, or q2 and q3 swapped (they read alike '
+            'where the fit registers the frame: a turn of 120 deg about the rods relabels them): RMS angle ') in err, err
+    assert not (tmp_path / 'x.yaml').exists()

@@ -180,6 +180,13 @@ def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
     if not found:
         return ''
     _, r, kind, words = min(found)
+    # in a frame the fit registers, a turn of 120 deg relabels the rods: any two swapped read alike (a trial's q1 and
+    # q3 were named q1 and q2); every swap within twice the best's error is named
+    alike = sorted(w.rsplit(' columns ', 1)[1].removesuffix(' swapped') for _, e, _, w in found
+                   if ' columns q' in w and e <= 2.0 * r)
+    if ' columns q' in words and len(alike) > 1:
+        words = (f'{words.split(" with ")[0]} with columns {", or ".join(alike)} swapped (they read alike where the '
+                 'fit registers the frame: a turn of 120 deg about the rods relabels them)')
     check = 'their columns\' unit (the header\'s, or the "# units:" line)' if 'times' in words else \
         'the header\'s column names'
     error = f'RMS angle {_angle(r)}' if kind else f'RMS {_length(r)}'
