@@ -30,18 +30,18 @@ planned and sampled by the robot core, sampled at ``rate``; ``idle`` -- nothing 
 serves the action ``gpr/run_program`` (gpr_interfaces/RunProgram: a program file of either kind or inline
 stations; feedback per sample; cancel stops before the next sample) whenever no stream is running. A stream is
 precomputed with the batch API (:mod:`.streams`) before its first sample; a wall timer at ``rate`` [Hz] then
-publishes one sample per tick. A start-up stream ends the node with status 0 after its last sample unless
-``loop`` is true (then it starts over; the sample counter keeps counting; a program must end where it starts,
-:func:`~gpr_kinematics.ros.stream_limits.loop_refusal`); ``idle`` runs until SIGINT/SIGTERM.
+publishes sample k stamped at ``start + k / rate``. A start-up stream ends the node with status 0 after its last
+sample unless ``loop`` is true (then it starts over; the sample counter keeps counting; a program must end where it
+starts, :func:`~gpr_kinematics.ros.stream_limits.loop_refusal`); ``idle`` runs until SIGINT/SIGTERM.
 
 The action is served by threads of its own (a ``MultiThreadedExecutor``; the action server's callbacks in a
 callback group apart from the timer's, a goal planned in the executing thread): while one goal is planned or
 streamed, new goals are answered at once (rejected: one program at a time) and cancels too (a goal cancelled while
 it is planned ends as cancelled before its first sample). A goal's program file is looked up in the package's
 ``config/programs`` and the folders of the parameter ``program_folders``, and its files are read only under these
-folders and the package's ``config``
-(:class:`~gpr_kinematics.ros.streams.GoalFiles`): any other path is refused naming the path and the rule, never
-the file's content; every bound of a goal (its stations, its samples) is checked before the work it bounds.
+folders and the package's ``config`` (:class:`~gpr_kinematics.ros.streams.GoalFiles`): any other path is refused
+naming the path and the rule, never the file's content; every bound of a goal (its stations, its samples) is checked
+before the work it bounds.
 
 The node's robot (parameter ``robot_file``; empty: the start-up robot program's robot, else the shipped example)
 runs every robot program; its ``gpr`` section is the node's geometry unless ``config_file`` is given.
@@ -242,8 +242,9 @@ class TrajectoryNode(GprNode):
     def _tick(self) -> None:
         """Publish every sample due by now: sample k of a stream at ``start + k / rate``. A tick the process could
         not serve in time (the machine is busy) is made up at the next one, at most :data:`CATCH_UP` samples at
-        once, so the stream keeps its rate on average instead of losing the ticks; under ``use_sim_time`` every
-        sample due at a step of the clock goes out, stamped at its instant (:data:`~.runtime.SIM_CATCH_UP`)."""
+        once, so the stream keeps its rate on average instead of losing the ticks, each sample stamped at its
+        instant; under ``use_sim_time`` every sample due at a step of the clock goes out (:data:`~.runtime
+        .SIM_CATCH_UP`)."""
         if self.stream is None:
             self.timer.cancel()
             return
@@ -257,7 +258,7 @@ class TrajectoryNode(GprNode):
             self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
                                    f'({"goal" if self.goal else self.p["mode"]}'
                                    f'{", looping" if self.p["loop"] and not self.goal else ""})')
-        now, start = self.pace_clock(), self.started_at   # (a simulated clock may start at 0.0)
+        now, start, ros_ns = self.pace_clock(), self.started_at, self.get_clock().now().nanoseconds
         if start is not None and now < self._paced[0] - self.period:   # a simulated clock set back: the rest of the
             self._paced = (now, self._paced[1] + self._paced[0] - start)   # stream from now on, at its rate
             self.get_logger().info(f'the simulated clock went back to {now:.3f} s: the stream goes on from sample '
@@ -266,9 +267,8 @@ class TrajectoryNode(GprNode):
         self._paced = (now, self._paced[1])
         due = int((now - (now if start is None else start)) / self.period) + 1
         for _ in range(max(1, min(due - self.sent, self.catch_up()))):
-            # under a simulated clock each sample at its own instant (a clock in steps: not a burst of one instant)
-            self._due_ns = (round((start + self.sent * self.period) * NS_PER_S) if self.simulated and start is not None
-                            else None)
+            self._due_ns = None if start is None else round((start + self.sent * self.period) * NS_PER_S) \
+                if self.simulated else ros_ns - round((now - start - self.sent * self.period) * NS_PER_S)
             if self.stream is None or not self._step(self.stream):
                 return
 
@@ -341,11 +341,11 @@ class TrajectoryNode(GprNode):
             self.finish(EXIT_FAILED)
 
     def publish_sample(self, traj: Trajectory, i: int) -> None:
-        # the clock's time, a nanosecond after the last sample's at least: under use_sim_time /clock stands still while
-        # a tick catches up samples, which shared a stamp (the stream's stamps must increase; tf drops repeats)
-        now = self.get_clock().now().nanoseconds   # a later stamp within a tick; a clock set back a tick or more
-        at = now if self._due_ns is None else min(now, self._due_ns)
-        back = at < self._stamped - round(self.period * NS_PER_S)   # (a simulation reset) is followed, not outrun
+        # the sample's instant (_tick; an early tick's up to a period ahead), after the last stamp (tf drops repeats);
+        # a clock set back a period or more (a simulation reset) is followed. As sent, catch-ups were 12x fast.
+        now, period = self.get_clock().now().nanoseconds, round(self.period * NS_PER_S)
+        at = now if self._due_ns is None else min(now + period, self._due_ns)
+        back = at < self._stamped - period
         stamp_ns = self._stamped = at if back else max(at, self._stamped + 1)
         msgs = stream_messages(ROS_TYPES, traj.fk[i], stamp_ns=stamp_ns,
                                frame_id=self.base_frame, sample=self.sample,
