@@ -564,6 +564,12 @@ def test_path_and_goal_tolerances(lagging):
     assert len(held) >= 3 and len({m.position[k] for m in held[1:]}) == 1, [m.position[k] for m in states[n:]]
     result, _ = _run(c, cli, goal(rest, 0.1, 1e-4, 0.5))      # back (from where the aborted goal stopped)
     assert result.error_code == 0, result.error_string
+    # the samples published while the joints settled are told apart from the trajectory's (it said '(101 samples)'
+    # of a goal that published 244)
+    m = re.fullmatch(r'reached the last point at t = ([\d.]+) s \((\d+) samples, then (\d+) as the joints settled\)',
+                     result.error_string)
+    assert m and int(m[2]) == round(RATE) + 1 and int(m[3]) == round((float(m[1]) - 1.0) * RATE) > 0, \
+        result.error_string
     result, _ = _run(c, cli, goal(rest + 1.0, 0.1, 1e-9, 0.02))
     assert result.error_code == -5 and 'exceeds the goal tolerance 1e-09 rad' in result.error_string
     assert math.isfinite(rest)

@@ -70,8 +70,7 @@ NODE_NAME = 'robot_simulator_node'
 #: How many of its latest states it remembers to tell its own messages heard back from another publisher's.
 OWN_KEPT = 256
 #: Shortest time [s, the node's clock] between two clearance checks of another publisher's states (with a cell): a
-#: stream at 100 Hz or more is taken at most this often (its latest state, by the line from the held one; about 15 ms
-#: a check), and the state still pending at the next idle tick or goal.
+#: faster stream's latest state (by the line from the held one; ~15 ms a check), the one pending at the next tick.
 FOREIGN_CHECK = 0.1
 
 
@@ -411,7 +410,8 @@ class RobotSimulatorNode(GprNode):
             final = m.positions[-1] - self.actual
             off = violation(self.joints, m.goal, final, -self.velocity, tol.goal_position, tol.goal_velocity, 'goal')
             if off is None:
-                self._end('succeeded', SUCCESSFUL, f'reached the last point at t = {m.late + t:.6g} s ({K} samples)')
+                self._end('succeeded', SUCCESSFUL, f'reached the last point at t = {m.late + t:.6g} s ({K} samples'
+                          + (f', then {r.k - K} as the joints settled)' if r.k > K else ')'))   # not all of r.k
                 return False
             if t > m.duration + tol.goal_time + 1e-9:
                 self._end('aborted', GOAL_TOLERANCE_VIOLATED, f'{t - m.duration:.6g} s after the last point '
