@@ -3,6 +3,7 @@ forward kinematics at the nominal and the calibrated geometry, the parameters' c
 written without changing the output or the status, and a bad ``--plot`` refused before any fit."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
@@ -123,6 +124,19 @@ def test_points_with_declared_noise_are_drawn_on_a_log_scale():
     finally:
         import matplotlib.pyplot as plt
         plt.close(fig)
+    # the worst row's label stays within its panel wherever the row is: the last one's ran off the axes' right
+    for worst in (0, len(q) - 1):
+        after = data.position.after.copy()
+        after[worst] = 2.0 * after.max()
+        fig = residual_figure(dataclasses.replace(data, position=dataclasses.replace(data.position, after=after)))
+        try:
+            fig.canvas.draw()
+            ax = fig.get_axes()[0]
+            label = next(t for t in ax.texts if t.get_text() == data.names[worst])
+            box, inside = label.get_window_extent(), ax.get_window_extent()
+            assert inside.x0 <= box.x0 and box.x1 <= inside.x1, (worst, box, inside)
+        finally:
+            plt.close(fig)
 
 
 @pytest.mark.slow

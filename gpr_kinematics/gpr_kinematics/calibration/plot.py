@@ -40,8 +40,9 @@ def _residual_panel(ax: Axes, data: ResidualPlot, k: Kind, what: str, unit: str)
             label=f'calibrated geometry (after): RMS {k.rms_after * 1e6:.3g} {unit}')
     ax.step(x, k.noise * 1e6, where='mid', color='k', lw=1, ls='--', label=_noise_label(k, unit))
     worst = int(np.argmax(k.after))
-    ax.annotate(data.names[worst], (float(x[worst]), float(k.after[worst] * 1e6)), xytext=(4, 4),
-                textcoords='offset points', fontsize=7, color='tab:blue')
+    right = x[worst] > x[0] + 0.8 * (x[-1] - x[0])   # in the last fifth its label goes left (it ran off the axes)
+    ax.annotate(data.names[worst], (float(x[worst]), float(k.after[worst] * 1e6)), xytext=(-4 if right else 4, 4),
+                textcoords='offset points', fontsize=7, color='tab:blue', ha='right' if right else 'left')
     if k.log:
         ax.set_yscale('log')
     else:
