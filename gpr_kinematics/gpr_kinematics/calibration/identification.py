@@ -41,7 +41,7 @@ from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise,
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements
 from .model import ParameterSet, PoseModel, pose_model, prior_scale
-from .plausibility import measured_errors, other_reading, plausible_start
+from .plausibility import measured_errors, other_reading, plausible_start, with_reading
 from .quality import (
     CHI2_QUANTILE,
     CV_GATE,
@@ -387,8 +387,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     except InputError as exc:   # the fit took the geometry to the edge of what a machine file allows
         raise InputError(f'{meas.source}: the fit moved the geometry out of its allowed ranges ({exc}): '
                          f'{NOT_THIS_MACHINE}') from None
-    theta = best.theta
-    chi2_red = best.cost / dof
+    theta, chi2_red = best.theta, best.cost / dof
     known = known_kinds(meas, declared)
     _refuse_far(meas, params, mask, best.residual, dof, known, absolute, lambda: other_reading(model, meas, theta0))
     cov = np.zeros((0, 0))
@@ -427,7 +426,8 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
             outlier_check(h, best.residual, names, robust=[kind not in known for kind, _ in KINDS[k]],
                           fitted=fit.size), _identified(model, mask, fit, tuple(ident.held)))
     weak = weak_at_estimate(params, fit, se, scale)
-    gate = _gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more, spread(h, best.residual), weak)
+    gate = with_reading(_gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more,
+                              spread(h, best.residual), weak), model, meas, theta0)   # a hint where far off
     warnings = far_from_prior(params, fit, theta, theta0, scale, frame) + weak
     if gross is not None and gross[1] and best.label.startswith(ON_RODS):   # held on their rods, not nominal
         ident = replace(ident, combinations=tuple(replace(c, held_at='its rod\'s place') if c.held in gross[1] else c

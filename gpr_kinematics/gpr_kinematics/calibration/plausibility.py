@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import GprError, InputError
 from .measurements import Measurements
 from .model import PoseModel, evaluate, pose_error
+from .quality import Gate
 
 Array = NDArray[np.float64]
 
@@ -151,9 +152,9 @@ def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
     refine = getattr(model, 'registered', None)
     poses = meas.quaternion is not None
 
-    def rms(position: Array, q: Array) -> tuple[float, float, bool]:
+    def rms(position: Array, q: Array, quaternion: Array | None = meas.quaternion) -> tuple[float, float, bool]:
         try:   # a reading beyond the coordinates' bound is refused (InputError) as a file of it would be
-            m = replace(meas, position=position, q=q)
+            m = replace(meas, position=position, q=q, quaternion=quaternion)
             e = measured_errors(model, m, refine(m) if callable(refine) else theta0)
         except GprError:
             return math.inf, math.inf, False
@@ -173,10 +174,19 @@ def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
                   p[:, swapped(a, b)], q, 0) for a, b in pairs]
     readings += [(f'the {"poses" if poses else "points"} fit this machine with columns q{a + 1} and q{b + 1} swapped',
                   p, q[:, swapped(a, b)], int(poses)) for a, b in pairs]
+    quaternions = []
+    if meas.quaternion is not None:   # a w-first or inverse rotation was blamed on the lengths' unit
+        o = meas.quaternion
+        quaternions = [('the poses fit this machine if their quaternions were written w first (w, x, y, z in the '
+                        'columns qx, qy, qz, qw)', o[:, [1, 2, 3, 0]]),
+                       ('the poses fit this machine if their quaternions were the inverse rotations (x, y, z negated: '
+                        'the frame in the target\'s, not the target in the frame)', o * [-1.0, -1.0, -1.0, 1.0])]
     read = rms(p, q)
     found = [(r[kind] / max(read[kind], 1e-300), r[kind], kind, words)
              for words, pr, qr, kind in readings for r in [rms(pr, qr)]
              if r[2] and r[kind] <= BETTER_READING * read[kind]]
+    found += [(r[1] / max(read[1], 1e-300), r[1], 1, words) for words, quaternion in quaternions
+              for r in [rms(p, q, quaternion)] if r[2] and r[1] <= BETTER_READING * read[1]]
     if not found:
         return ''
     _, r, kind, words = min(found)
@@ -188,10 +198,28 @@ def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
         words = (f'{words.split(" with ")[0]} with columns {", or ".join(alike)} swapped (they read alike where the '
                  'fit registers the frame: a turn of 120 deg about the rods relabels them)')
     check = 'their columns\' unit (the header\'s, or the "# units:" line)' if 'times' in words else \
-        'the header\'s column names'
+        'the quaternion columns\' order and convention (x, y, z, w: the target\'s rotation in the frame)' \
+        if 'quaternions' in words else 'the header\'s column names'
     error = f'RMS angle {_angle(r)}' if kind else f'RMS {_length(r)}'
     return f'{words}: {error} from the nominal model\'s against {(_angle if kind else _length)(read[kind])} as ' \
         f'read; check {check}'
+
+
+#: A failed chi-square beyond this (residuals ten times the noise) looks for another reading of the file.
+FAR_CHI2 = 100.0
+
+
+def with_reading(gate: Gate, model: PoseModel, meas: Measurements, theta0: Array) -> Gate:
+    """``gate`` with :func:`other_reading`'s hint after its chi-square's words where that failed beyond
+    :data:`FAR_CHI2`: conjugated quaternions failed it at 3566 with no word of them."""
+    check = next((c for c in gate.checks if c.name == 'chi_square'), None)
+    if check is None or check.passed or not check.value > FAR_CHI2:
+        return gate
+    hint = other_reading(model, meas, theta0)
+    if not hint:
+        return gate
+    said = replace(check, detail=f'{check.detail} {hint[0].upper()}{hint[1:]}.')
+    return Gate(tuple(said if c is check else c for c in gate.checks))
 
 
 def _angle(v: float) -> str:
