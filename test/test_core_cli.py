@@ -258,6 +258,32 @@ def test_out_of_memory_is_one_line_and_status_2(capsys, monkeypatch):
                    'coarser settings)\n')
 
 
+@pytest.mark.parametrize('stop, status, word', [(KeyboardInterrupt, 130, 'interrupted'),
+                                                 ('terminated', 143, 'terminated')])
+def test_a_signal_raised_while_a_value_is_converted_is_a_stop_not_a_traceback(capsys, monkeypatch, stop, status,
+                                                                             word):
+    """The handler's KeyboardInterrupt (or SIGTERM's) raised while pybind11 converts a value (rclpy's messages, in
+    `gpr program send`) reaches the command as a TypeError from it: a traceback, exit 1. It ends as the signal's
+    stop; any other TypeError is no stop."""
+    import gpr_kinematics.cli.main as cli_main
+    signal_exc = cli_main._Terminated() if stop == 'terminated' else stop()
+
+    def converting(args):
+        raise TypeError('Unable to convert function return value to a Python type!') from signal_exc
+    parser = cli_main.build_parser()
+    fk = parser._subparsers._group_actions[0].choices['fk']
+    monkeypatch.setattr(cli_main, 'build_parser', lambda *args, **kwargs: parser)
+    monkeypatch.setattr(fk, '_defaults', {**fk._defaults, 'handler': converting})
+    assert main(['fk', '0.3', '0.3', '0.3']) == status
+    assert capsys.readouterr() == ('', f'gpr fk: {word}\n')
+
+    def failing(args):
+        raise TypeError('a bug')
+    monkeypatch.setattr(fk, '_defaults', {**fk._defaults, 'handler': failing})
+    with pytest.raises(TypeError, match='a bug'):
+        main(['fk', '0.3', '0.3', '0.3'])
+
+
 def test_ctrl_c_while_the_command_line_loads_is_interrupted_not_a_traceback(capsys, monkeypatch):
     """Ctrl-C in the first tenths of a second (numpy and the command's modules loading, before its own handler)
     printed a KeyboardInterrupt traceback through the imports; now ``gpr: interrupted``, status 130, from the console

@@ -257,10 +257,11 @@ def _main(argv: Sequence[str] | None) -> int:
         sys.stderr.write(f'{command}: error: {error}\n')
         return EXIT_USAGE
     except KeyboardInterrupt as exc:   # Ctrl-C, or SIGTERM (_Terminated): the outputs taken back on the way out
-        killed = isinstance(exc, _Terminated)
-        after = ' after it had finished' if stop.kept else ''   # its outputs whole, as the work left them
-        sys.stderr.write(f'{command}: {"terminated" if killed else "interrupted"}{after}\n')
-        return 128 + signal.SIGTERM if killed else EXIT_INTERRUPTED
+        return _stopped(command, exc, stop.kept)
+    except TypeError as exc:   # the same raised while pybind11 converted a value (rclpy's messages): a traceback
+        if not isinstance(exc.__cause__, KeyboardInterrupt):
+            raise
+        return _stopped(command, exc.__cause__, stop.kept)
     except BrokenPipeError:
         return 0
     except OSError as exc:  # the standard output on a full disk or a failing device (files are the handlers' to name)
@@ -270,6 +271,15 @@ def _main(argv: Sequence[str] | None) -> int:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def _stopped(command: str, exc: KeyboardInterrupt, kept: bool) -> int:
+    """The line and status of a command a signal stopped: interrupted (130) or terminated (143), ``kept``: after its
+    outputs were kept."""
+    killed = isinstance(exc, _Terminated)
+    after = ' after it had finished' if kept else ''   # its outputs whole, as the work left them
+    sys.stderr.write(f'{command}: {"terminated" if killed else "interrupted"}{after}\n')
+    return 128 + signal.SIGTERM if killed else EXIT_INTERRUPTED
 
 
 def _check_arguments(chosen: argparse.ArgumentParser, extra: Sequence[str], argv: Sequence[str]) -> None:

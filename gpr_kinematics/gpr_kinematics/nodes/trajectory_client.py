@@ -5,13 +5,17 @@ controller (``robot_simulator_node``, ros2_control's ``joint_trajectory_controll
 (:func:`other_robot_there` reads the robot's name on ``robot_description``);
 :func:`follow_trajectory` sends a :class:`~gpr_kinematics.robot.trajectory.JointTrajectory` as a goal, reports its
 feedback and returns the outcome (:class:`FollowOutcome`: the goal status and the result's ``error_code`` and
-``error_string``); an interrupt (Ctrl-C) cancels the goal before it leaves. ``gpr program send`` runs on these.
+``error_string``); an interrupt (Ctrl-C, SIGTERM) cancels the goal before it leaves: while a goal is sent and
+followed the signal is noted (:func:`noted_signals`), the goal cancelled, then the signal raised again for the
+handler it was meant for. ``gpr program send`` runs on these.
 """
 from __future__ import annotations
 
 import re
+import signal
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 from xml.sax.saxutils import unescape
@@ -181,15 +185,18 @@ def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, tim
                 progress(msg.feedback)
 
         goal = FollowJointTrajectory.Goal(trajectory=trajectory_msg(traj))
-        handle = client.wait(cli.send_goal_async(goal, feedback_callback=on_feedback), timeout, f'{action} goal')
-        if not handle.accepted:
+        with noted_signals() as signals:   # noted, not raised within rclpy (module docstring)
+            handle = client.wait(cli.send_goal_async(goal, feedback_callback=on_feedback), timeout, f'{action} goal')
+            future = handle.get_result_async() if handle.accepted else None
+            end = time.monotonic() + traj.duration + timeout
+            while future is not None and not future.done() and not signals and time.monotonic() < end:
+                client.executor.spin_once(timeout_sec=0.05)
+            if signals and future is not None and not future.done():
+                _cancel(client, handle)
+        if signals:
+            signal.raise_signal(signals[0])   # to the handler it was meant for (gpr's: interrupted, 130/143)
+        if future is None:
             return FollowOutcome('rejected', 0, '', f'{action} rejected the goal', 0)
-        future = handle.get_result_async()
-        try:
-            client.executor.spin_until_future_complete(future, timeout_sec=traj.duration + timeout)
-        except KeyboardInterrupt:
-            _cancel(client, handle)
-            raise
         if not future.done():
             _cancel(client, handle)
             raise ServiceTimeoutError(f'{action}: no result {timeout:g} s after the trajectory\'s end; the goal was '
@@ -200,6 +207,28 @@ def follow_trajectory(client: GprClient, traj: JointTrajectory, action: str, tim
                              str(res.result.error_string), count[0])
     finally:
         cli.destroy()
+
+
+@contextmanager
+def noted_signals() -> Iterator[list[int]]:
+    """SIGINT and SIGTERM noted in the list it yields, not handled, while the block runs (in the main thread; a
+    signal ignored stays ignored); the handlers restored after it. A ``KeyboardInterrupt`` raised by the handler
+    while rclpy converted a message became a ``TypeError`` ("Unable to convert function return value"): a traceback,
+    and the goal left running."""
+    noted: list[int] = []
+    previous: dict[signal.Signals, Any] = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(signum) is signal.SIG_IGN:
+            continue
+        try:
+            previous[signum] = signal.signal(signum, lambda n, _frame: noted.append(n))
+        except ValueError:   # not the main thread: nothing to note
+            break
+    try:
+        yield noted
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 def _cancel(client: GprClient, handle: Any) -> None:
