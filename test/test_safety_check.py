@@ -788,6 +788,14 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     ax1, ax2 = fig.axes
     assert ax1.get_ylim()[1] == pytest.approx(96.0 * 1.02) and ax1.patches[0].get_data()[0].tolist() == [90.0, 80.0]
     assert [t.get_text() for t in ax2.texts] == ['no wafer carried']
+    # unsafe by the slip alone: the curve is refined to each pair's least distance (said), but no x is drawn, so none
+    # is named (the legend named "the first approach is the x" with no x and no pair below the margin)
+    import dataclasses
+    slipping = dataclasses.replace(report, safe=False, max_slip_ratio=1.025)
+    fig2 = check_figure(clear, (np.array([0.0, 2.0]), np.array([0.5, 1.025])), slipping)
+    curve = fig2.axes[0].patches[0].get_label()
+    assert curve.endswith("refined to each pair's least\ndistance only: below the margin\nit may lie far under the "
+                          'truth') and not any(line.get_marker() == 'x' for line in fig2.axes[0].lines), curve
     (least,) = [line for line in ax1.lines if line.get_marker() == 'v']
     assert (least.get_xdata()[0], least.get_ydata()[0], least.get_label()) == (1.5, 80.0, 'least 80.000 mm at 1.500 s:'
                                                                                '\na / b')

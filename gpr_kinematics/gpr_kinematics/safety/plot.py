@@ -47,8 +47,8 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
         shown = np.clip(np.where(np.isfinite(bound), bound * 1e3, top), None, top)
         # the search stops refining once a pair is below the margin (or the slip fails): not for the budget alone
         loose = ('' if not report.collisions and report.max_slip_ratio < 1.0 else
-                 '\nrefined to each pair\'s least\ndistance only: below the margin\nit may lie far under the truth;'
-                 '\nthe first approach is the x')
+                 '\nrefined to each pair\'s least\ndistance only: below the margin\nit may lie far under the truth'
+                 + (';\nthe first approach is the x' if report.collisions else ''))   # an x only for a collision
         ax1.stairs(shown, t, baseline=None, lw=1,
                    label=f'{"certified" if report.proven else "first-order"} clearance\n(lower bound over all pairs;\n'
                          f'above {top:g} mm drawn at the top){loose}')
