@@ -861,3 +861,20 @@ def test_a_signal_between_outputs_or_after_their_commit(tmp_path, monkeypatch, c
         status, f'gpr program export: {word} after it had finished\n', ['s.json', 'w.csv'])
     assert json.loads((tmp_path / 's.json').read_text())['rows']
     assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)] == before   # the handlers given back
+
+
+@pytest.mark.parametrize('command', ['fk', 'teach'])
+def test_a_joint_typed_in_degrees_beyond_its_limit_is_named_as_typed(capsys, command):
+    """`--joints 0 170 0 0 --deg` on arm2 (elbow within +-2.9 rad) said 'arm2_elbow = 2.96705973 rad is beyond its
+    upper limit 2.9 rad': the docs promise a value typed under --deg named as typed, the SI beside. The numbers
+    independently: 170 deg is 2.96705973 rad, 2.9 rad is 166.157761 deg, 3.84 deg apart."""
+    assert (f'{math.radians(170):.9g}', f'{math.degrees(2.9):.9g}', f'{170 - math.degrees(2.9):.3g}') == (
+        '2.96705973', '166.157761', '3.84')
+    status, out, err = run(capsys, 'robot', command, '--rods', '250', '250', '250', '--joints', '0', '170', '0', '0',
+                           '--arm', 'arm2', '--mm', '--deg')
+    assert (status, out) == (2, '')
+    assert err == (f'gpr robot {command}: error: --joints: arm2_elbow = 170 deg (2.96705973 rad) is beyond its upper '
+                   'limit 166.157761 deg (2.9 rad) by 3.84 deg; allowed: [-166.157761, 166.157761] deg\n')
+    status, out, err = run(capsys, 'robot', command, '--rods', '0.25', '0.25', '0.25', '--joints', '0', '2.967', '0',
+                           '0', '--arm', 'arm2')   # radians typed: named in radians, as typed
+    assert status == 2 and 'arm2_elbow = 2.967 rad is beyond its upper limit 2.9 rad' in err, err

@@ -30,13 +30,28 @@ def _print_poses(fk: RobotForward, i: int = 0) -> None:
           'where the old tool places it')
 
 
-def _check_joint_count(joints: list[float], arm: Arm) -> None:
-    """``--joints`` one value per joint of ``arm`` (the core's words are the array's: shape (N, 3))."""
+def _typed_joints(args: argparse.Namespace, arm: Arm, limits: bool = True) -> list[float]:
+    """``--joints`` [rad]: one value per joint of ``arm`` (the core's words are the array's: shape (N, 3)); under
+    ``--deg`` with ``limits`` a value beyond its joint's limits named as typed, the radians beside (the core named the
+    radians alone: ``2.96705973 rad`` for a typed 170)."""
+    import math
+
     from ..errors import InputError
+    from ..robot.arm_chain import LIMIT_SLACK
+    joints = args.joints
     if len(joints) != len(arm.joints):
         raise InputError(f'--joints: {len(joints)} value{"s" if len(joints) != 1 else ""} for arm {arm.name}, which '
                          f'has {len(arm.joints)} joints ({", ".join(arm.joint_names)}); allowed: one value per joint, '
                          'shoulder first')
+    values = angles(args, joints)
+    for typed, v, j in zip(joints, values, arm.joints, strict=True):
+        if args.deg and limits and not j.lower - LIMIT_SLACK <= v <= j.upper + LIMIT_SLACK:
+            side, limit = ('lower', j.lower) if v < j.lower else ('upper', j.upper)
+            deg = math.degrees
+            raise InputError(f'--joints: {j.name} = {typed:.9g} deg ({v:.9g} rad) is beyond its {side} limit '
+                             f'{deg(limit):.9g} deg ({limit:.9g} rad) by {abs(deg(v - limit)):.3g} deg; allowed: '
+                             f'[{deg(j.lower):.9g}, {deg(j.upper):.9g}] deg')
+    return values
 
 
 def _cmd_fk(args: argparse.Namespace) -> int:
@@ -44,8 +59,7 @@ def _cmd_fk(args: argparse.Namespace) -> int:
     from ..robot.stations import stations_from_poses
     robot = robot_of(args)
     arm = robot.arm(args.arm)
-    _check_joint_count(args.joints, arm)
-    fk = robot_forward(robot, [lengths(args, args.rods)], [angles(args, args.joints)], arm.name)
+    fk = robot_forward(robot, [lengths(args, args.rods)], [_typed_joints(args, arm)], arm.name)
     if args.json:
         emit_json(fk.record(0))
         return 0
@@ -117,9 +131,9 @@ def _cmd_teach(args: argparse.Namespace) -> int:
                              f'units in its header ("{rod} [mm]", "{joint} [deg]") or a "# units: mm deg" line')
         names, rods, joints = read_joint_table(args.table, robot, args.arm, check_limits=not args.naive)
     elif args.rods and args.joints:
-        _check_joint_count(args.joints, robot.arm(args.arm))
+        typed = _typed_joints(args, robot.arm(args.arm), limits=not args.naive)
         # no names: one configuration typed, no table's row to name (its station is '0')
-        names, rods, joints = None, np.array([lengths(args, args.rods)]), np.array([angles(args, args.joints)])
+        names, rods, joints = None, np.array([lengths(args, args.rods)]), np.array([typed])
     else:
         from ..errors import InputError
         raise InputError('give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 [J3 J4], or --table FILE')
