@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -283,5 +284,22 @@ def test_a_signal_while_the_goal_runs_cancels_it_and_ends_with_one_line(ros_envi
             assert (proc.returncode, err) == (status, f'gpr program send: {word}\n'), (out, err, sim.output())
             wait_for_log(sim, '(?s)' + '.*goal canceled \\(0\\): cancelled at t = ' * (k + 1), timeout=10)
         assert 'goal succeeded' not in sim.output(), sim.output()
+        # a send while another goal runs: it planned the lead-in from a state the robot left, and the simulator
+        # refused the goal's start ("aborted (error_code -1 INVALID_GOAL): points[0] ... start_tolerance"); now the
+        # moving robot is named before any goal is sent
+        first = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
+                                  '--namespace', ns], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                 env=dict(os.environ))
+        end = time.monotonic() + 120
+        while sim.output().count('goal accepted') <= 4 and first.poll() is None and time.monotonic() < end:
+            time.sleep(0.05)
+        second = _send(PROGRAM, '--namespace', ns)
+        first.send_signal(signal.SIGINT)
+        first.communicate(timeout=60)
+        assert second.returncode == 1 and second.stderr.count('\n') == 1, second.stderr
+        assert re.fullmatch(r'gpr program send: the robot is moving: \w+ went [\d.e-]+ (m|rad) while the move from '
+                            r'where it was was planned \(another goal under way\?\); allowed: a robot at rest \(wait '
+                            r'for its goal to end, or cancel it\)\n', second.stderr), second.stderr
+        assert sim.output().count('goal accepted') == 5, sim.output()   # the second was not sent
     finally:
         sim.stop()

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from ..core.messages import FOLLOW_JOINT_TRAJECTORY, RosMessage, Topic
 from ..errors import InputError, RobotStateError, UnsafeError
 from ..inputs.resources import PROGRAMS
@@ -27,7 +29,6 @@ from .output import emit_json
 from .program_trajectory import as_a_controller_takes_it, lead_in_keeps_clearance
 
 if TYPE_CHECKING:
-    import numpy as np
     from numpy.typing import NDArray
 
     from ..nodes.client import GprClient
@@ -140,6 +141,36 @@ def _where_the_robot_is(tc: ModuleType, client: GprClient, names: Sequence[str],
     return current, ''
 
 
+#: Largest change [m or rad] of a joint while the lead-in is planned for a robot at rest (robot_simulator_node's
+#: default ``start_tolerance``).
+MOVED = 1e-3
+
+
+def _lead_in(args: argparse.Namespace, plan: ProgramPlan, traj: JointTrajectory, tc: ModuleType, client: GprClient,
+             joint_states: str, current: NDArray[np.float64]) -> tuple[JointTrajectory, float | None, str]:
+    """The goal from where the robot is (``current``) and its lead-in [s], with the line that says why it cannot
+    be sent ('' if it can): a start it cannot leave, or a robot that moved beyond :data:`MOVED` while the lead-in was
+    planned (still running another goal, it had been sent a start where it had been and refused it, naming its start
+    tolerance: ``INVALID_GOAL``)."""
+    from ..robot.controller import ControllerJoints
+    from ..robot.trajectory import lead_in
+    try:
+        goal, start = lead_in(plan, traj, current, args.rate)
+        lead_in_keeps_clearance(plan, goal, start)
+    except RobotStateError as exc:
+        return traj, None, f'gpr program send: {exc}'
+    now, _ = _where_the_robot_is(tc, client, traj.joint_names, joint_states, args)
+    off = np.zeros(1) if now is None else abs(now - current)
+    k = int(off.argmax())
+    if not off[k] > MOVED:
+        return goal, start, ''
+    joints = ControllerJoints.of(plan.robot)
+    unit = joints.units[joints.names.index(traj.joint_names[k])]
+    return goal, start, (f'gpr program send: the robot is moving: {traj.joint_names[k]} went {off[k]:.3g} {unit} '
+                         'while the move from where it was was planned (another goal under way?); allowed: a robot at '
+                         'rest (wait for its goal to end, or cancel it)')
+
+
 def _failed(args: argparse.Namespace, plan: ProgramPlan, action: str, traj: JointTrajectory, line: str,
             status: str = 'not_sent', lead_in: float | None = None) -> int:
     """A send that ended before the goal's outcome: ``line`` on stderr and, with ``--json``, the :class:`SendResult`
@@ -180,7 +211,7 @@ def _refused_as_unsafe(args: argparse.Namespace, plan: ProgramPlan, traj: JointT
 
 
 def _cmd_send(args: argparse.Namespace) -> int:
-    from ..robot.trajectory import lead_in, program_trajectory
+    from ..robot.trajectory import program_trajectory
     _check_times(args)
     _, plan = program_plan(args, args.rate)
     traj = program_trajectory(plan, args.rate)
@@ -197,11 +228,9 @@ def _cmd_send(args: argparse.Namespace) -> int:
         other = None if current is None else tc.other_robot_there(client, plan.robot.name)
         if current is None or other is not None:   # another robot there, status 1
             return _failed(args, plan, action, traj, why or f'gpr program send: {other}')
-        try:
-            goal, start = lead_in(plan, traj, current, args.rate)
-            lead_in_keeps_clearance(plan, goal, start)
-        except RobotStateError as exc:   # the robot's state, not the command's input: as a refused goal, status 1
-            return _failed(args, plan, action, traj, f'gpr program send: {exc}')
+        goal, start, why = _lead_in(args, plan, traj, tc, client, joint_states, current)
+        if why:   # the robot's state, not the command's input: as a refused goal, status 1
+            return _failed(args, plan, action, goal, why, lead_in=start)
 
         def found() -> None:   # said once the server is found, not before "no FollowJointTrajectory server"
             if not args.json:
