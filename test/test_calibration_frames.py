@@ -15,11 +15,12 @@ import numpy as np
 import pytest
 from calibration_support import equivalent_truth, imperfect, off_radius
 from gpr_kinematics.calibration.core_model import CoreModel, fitted_covariance
-from gpr_kinematics.calibration.frames import FramedModel, Transform, initial_frames, measuring_model, registration
+from gpr_kinematics.calibration.frames import FramedModel, Transform, initial_frames, measuring_model
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import Measurements, write_measurements
 from gpr_kinematics.calibration.model import evaluate
 from gpr_kinematics.calibration.plan import plan_measurements
+from gpr_kinematics.calibration.registration import registration
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
 from gpr_kinematics.calibration.tolerances import bound_of, load_tolerances, prior_of
 from gpr_kinematics.cli.main import main

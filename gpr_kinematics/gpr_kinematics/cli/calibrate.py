@@ -71,9 +71,10 @@ def _calibrate(args: argparse.Namespace) -> int:
         fitted_covariance,
         write_calibrated_config,
     )
-    from ..calibration.frames import FramedModel, measuring_model, registration
+    from ..calibration.frames import FramedModel, measuring_model
     from ..calibration.identification import identify
     from ..calibration.measurements import read_measurements
+    from ..calibration.registration import registration
     from ..calibration.report import format_calibration
     if args.output is None:
         raise InputError('--output FILE is required: the calibrated geometry is written there')

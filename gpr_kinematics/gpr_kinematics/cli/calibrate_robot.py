@@ -30,8 +30,8 @@ from .progress import progress_line
 
 if TYPE_CHECKING:
     from ..calibration.arm import ArmMeasurements, ArmModel
-    from ..calibration.frames import Registration
     from ..calibration.model import PoseModel
+    from ..calibration.registration import Registration
     from ..calibration.results import CalibrationResult
     from ..core.geometry_covariance import GeometryCovariance
     from ..robot.description import RobotDescription
@@ -162,8 +162,9 @@ def _gpr_covariance(args: argparse.Namespace, robot: RobotDescription) -> Geomet
 def calibrate_robot(args: argparse.Namespace) -> int:
     """Identify every arm with measurement files (module docstring); status 0, or 1 when a fit fails its gate."""
     from ..calibration.arm_gpr import ResidualShare, gain, weighted_jacobians, weighted_residuals, with_gpr_covariance
-    from ..calibration.frames import FramedModel, registration
+    from ..calibration.frames import FramedModel
     from ..calibration.identification import identify, weights
+    from ..calibration.registration import registration
     from ..calibration.report import format_calibration
     from ..robot.description import load_robot
     from ..robot.gpr_section import GprSection
