@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -105,6 +105,10 @@ class MeasurementPlan:
         identifiability: the plan's identifiability analysis (its scaled singular values, what it holds).
         fitted: indices of the parameters the plan identifies; covariance: their covariance ``(F, F)`` (SI) for
             the noise the plan was made for.
+        held_indices: the free parameters the plan holds (``(H,)``: free, not fitted); alias: ``(F, H)``, how a
+            deviation ``dh`` of the held ones from the value the fit holds them at moves the fitted estimates,
+            ``f_true + alias dh`` (Box & Draper, *Empirical model-building and response surfaces*, 1987, sec. 10.2:
+            ``A = (J_f' W J_f)^-1 J_f' W J_h`` of the plan's weighted Jacobians, in parameter coordinates).
         candidates: number of candidates; passes: exchange passes run; exchanges: swaps made.
         parameters: the model's parameters (names and units of ``fitted``).
         theta: the parameter coordinates the plan was made at (the Jacobians' linearisation point).
@@ -125,6 +129,8 @@ class MeasurementPlan:
     exchanges: int
     parameters: ParameterSet
     theta: Array | None = None
+    held_indices: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    alias: Array = field(default_factory=lambda: np.zeros((0, 0)))
 
     def as_dict(self) -> dict[str, Any]:
         """Plain data for JSON: the configurations, the indices, the identifiability, and the predicted standard
@@ -320,10 +326,15 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
                     held=tuple(c.held for c in combos), combinations=tuple(combos))
     fit_cols = [names.index(nm) for nm in fit]
     fitted = free_idx[fit_cols]
-    cov = np.zeros((0, 0))
+    held_cols = [c for c in range(free_idx.size) if c not in set(fit_cols)]
+    held = free_idx[held_cols]
+    cov, alias = np.zeros((0, 0)), np.zeros((len(fit_cols), len(held_cols)))
     if fit_cols:
         _, s, vt = np.linalg.svd(triangular_factor(Jp[:, fit_cols]))
         cov = (vt.T / s ** 2) @ vt * np.outer(scale[fitted], scale[fitted])
+        if held_cols:   # the least-squares fit of the fitted columns to the held ones, unscaled to coordinates
+            alias = np.linalg.lstsq(Jp[:, fit_cols], Jp[:, held_cols], rcond=None)[0] * \
+                np.outer(scale[fitted], 1.0 / scale[held])
     value = observability_index(ident.fitted_singular_values, n, index)
     rng = np.random.default_rng(seed)
     rand = []
@@ -336,4 +347,4 @@ def plan_measurements(model: PoseModel, config: GprConfig, n: int, index: str = 
     return MeasurementPlan(q=cand.q[sel], height=cand.height[sel], tilt=cand.tilt[sel], azimuth=cand.azimuth[sel],
                            index_name=index, index=value, random_index=float(np.median(rand)),
                            identifiability=ident, fitted=fitted, covariance=cov, candidates=C, passes=passes,
-                           exchanges=exchanges, parameters=params, theta=theta0)
+                           exchanges=exchanges, parameters=params, theta=theta0, held_indices=held, alias=alias)
