@@ -320,7 +320,10 @@ def test_stations_beyond_the_machines_limits_are_refused(Q, words):
                            r'are kept\)$'),
     ({'keep_samples': 1.5}, r'^keep_samples = 1\.5; allowed: an integer >= 0'),
     ({'keep_samples': True}, r'^keep_samples = True; allowed: an integer >= 0'),
-    ({'calibrated': ([0], np.eye(1), 'x')}, r'^calibrated = .*; allowed: a pair \(indices, covariance\)'),
+    # a third element is now the calibration's alias (held_indices, A): a string there is named as the alias
+    ({'calibrated': ([0], np.eye(1), 'x')}, r"^calibrated alias = 'x'; allowed: None or a pair \(held_indices, A\) "
+                                            r'with A of shape \(1, number of held parameters\)'),
+    ({'calibrated': ([0], np.eye(1), None, 1)}, r'^calibrated = .*; allowed: a pair \(indices, covariance\)'),
 ])
 def test_budget_options_of_the_wrong_kind_are_named(kwargs, words):
     """theta as text was a ValueError, calibrated='x' an IndexError, keep_samples='x' a ValueError and -1 silently

@@ -8,9 +8,10 @@ heading):
 
 * **linearised**: ``v = sum_j G_j x_j`` with the sensitivities ``G_j`` (central differences, :mod:`.model`) and
   the sources ``x_j``: each tolerated parameter, the rod-length error of each rod, the play of each joint and,
-  after a calibration, the covariance of the calibrated parameters. ``rss = sqrt(E |v|^2)`` (the mean and the
-  variances of all sources, root-sum-square), each source's **share** of ``E |v|^2`` (shares sum to 1), and
-  the **worst case** ``max |v|`` over every source at its bound at once (interval ends; the ball of a joint's
+  after a calibration, the covariance of the calibrated parameters (and, with the calibration's alias, each held
+  parameter's effect net of what the calibration absorbs of it into the calibrated ones). ``rss = sqrt(E |v|^2)``
+  (the mean and the variances of all sources, root-sum-square), each source's **share** of ``E |v|^2`` (shares sum
+  to 1), and the **worst case** ``max |v|`` over every source at its bound at once (interval ends; the ball of a joint's
   play; the 3-sigma ellipsoid of a covariance): for a 2-D quantity the support function
   ``h(u) = u . v_0 + sum_j |u . g_j| w_j + ...`` maximised over :data:`DIRECTIONS` directions ``u`` and divided
   by ``cos(pi / DIRECTIONS)``, a guaranteed bound of the linearised error within 0.002 % (not of the model's: a
@@ -99,6 +100,8 @@ class Budget:
             samples' scatter (:data:`SCATTERS`), and where a sample's error exceeds the linearised worst case.
         kept: per quantity the Monte Carlo's ``|v|`` ``(samples, K)`` of the first ``K`` stations (``keep_samples``
             of :func:`accuracy_budget`; empty without): the samples ``mc`` summarises, for a plot.
+        compensated: the tolerated parameters a calibration held and compensated through the calibrated ones (its
+            alias: their sources are their effects net of it); empty without an alias.
     """
 
     q: Array
@@ -121,10 +124,12 @@ class Budget:
     mc_std: Array
     warnings: tuple[str, ...] = ()
     kept: dict[str, Array] = field(default_factory=dict)
+    compensated: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """Plain data for JSON: per station, per quantity ``rss``, ``worst``, ``shares`` (by source) and, with
-        samples, ``monte_carlo`` (``p<percentile>``, ``rms`` and ``max``), with the unit."""
+        samples, ``monte_carlo`` (``p<percentile>``, ``rms`` and ``max``), with the unit; with a calibration's alias
+        ``compensated``, the held parameters it compensates."""
         stations = []
         for i, label in enumerate(self.labels):
             quantities = {}
@@ -138,8 +143,9 @@ class Budget:
                                                             'max': float(self.mc_max[name][i])}
             stations.append({'label': label, 'q': self.q[i].tolist(), 'tool': self.tool[i].tolist(),
                              'quantities': quantities})
-        return {'frame': self.frame, 'samples': self.samples, 'seed': self.seed, 'percentiles': list(self.percentiles),
-                'sources': list(self.sources), 'stations': stations, 'warnings': list(self.warnings)}
+        out = {'frame': self.frame, 'samples': self.samples, 'seed': self.seed, 'percentiles': list(self.percentiles),
+               'sources': list(self.sources), 'stations': stations, 'warnings': list(self.warnings)}
+        return out | ({'compensated': list(self.compensated)} if self.compensated else {})
 
 
 @dataclass(frozen=True)
@@ -184,21 +190,29 @@ def _systematic(pose0: tuple[Array, Array], pose_c: tuple[Array, Array], tool: A
 def _sources(model: PoseModel, theta: Array, Q: Array, rot: Array, tool: Array, frame: Array,
              tols: list[Tolerance | None], table: ToleranceTable, calibrated: Calibrated | None) -> list[_Source]:
     """The sources, their sensitivities taken at ``theta`` (the linearisation point: each tolerated parameter at
-    its mean)."""
+    its mean). A held parameter of the calibration's alias ``(held, A)`` moves the pose by ``G_h - G_f A[:, h]``:
+    the calibration that held it absorbed ``A dh`` into the fitted parameters (``G_f`` their sensitivities)."""
     params = model.parameters
-    cal_idx = np.asarray(calibrated[0], dtype=int) if calibrated is not None else np.zeros(0, dtype=int)
+    cal_idx = calibrated[0] if calibrated is not None else np.zeros(0, dtype=np.int64)
     cols = [j for j, t in enumerate(tols) if t is not None and j not in set(cal_idx.tolist())]
+    alias = {int(h): k for k, h in enumerate(calibrated[2][0])} if calibrated is not None and \
+        calibrated[2] is not None else {}
     out: list[_Source] = []
     if cols or cal_idx.size:
         J = _with_tool(pose_jacobian(model, theta, Q, np.array(cols + cal_idx.tolist(), dtype=int)), rot, tool,
                        frame)
+        G_f = J[:, :, len(cols):]
         for c, j in enumerate(cols):
             t = tols[j]
             assert t is not None
-            out.append(_interval(params[j].name, J[:, :, c:c + 1], t, t.mean if abs(t.mean) > 1e-9 * t.std else 0.0))
+            G = J[:, :, c:c + 1]
+            if j in alias:
+                assert calibrated is not None and calibrated[2] is not None
+                G = G - G_f @ calibrated[2][1][:, alias[j]:alias[j] + 1]
+            out.append(_interval(params[j].name, G, t, t.mean if abs(t.mean) > 1e-9 * t.std else 0.0))
         if cal_idx.size:
-            cov = np.asarray(calibrated[1], dtype=float)  # type: ignore[index]
-            out.append(_Source('calibration', J[:, :, len(cols):], np.zeros(cal_idx.size), cov, 'ellipsoid',
+            assert calibrated is not None
+            out.append(_Source('calibration', G_f, np.zeros(cal_idx.size), calibrated[1], 'ellipsoid',
                                np.zeros(0), np.zeros(cal_idx.size)))
     if table.rod_length is not None:
         Jq = _with_tool(rod_jacobian(model, theta, Q), rot, tool, frame)
@@ -270,7 +284,7 @@ def _check_options(N: int, samples: int, tool: ArrayLike, frame_rotation: ArrayL
 
 def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool: ArrayLike = (0.0, 0.0, 0.0),
                     samples: int = 10_000, seed: int = 0, theta: ArrayLike | None = None,
-                    calibrated: tuple[ArrayLike, ArrayLike] | None = None, labels: Sequence[str] | None = None,
+                    calibrated: tuple[ArrayLike, ...] | None = None, labels: Sequence[str] | None = None,
                     percentiles: Sequence[float] = (50.0, 95.0, 99.0), frame: str = 'gpr_base',
                     frame_rotation: ArrayLike | None = None, progress: StageProgress | None = None,
                     keep_samples: int = 0) -> Budget:
@@ -285,7 +299,11 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
         theta: the model's parameter values the machine is predicted with (default nominal; after a
             calibration, its estimate).
         calibrated: ``(indices, covariance)`` of calibrated parameters (e.g. ``CalibrationResult.fitted`` and
-            ``.covariance``, or a plan's): their deviation is normal with that covariance, in place of the table.
+            ``.covariance``, or a plan's): their deviation is normal with that covariance, in place of the table;
+            or ``(indices, covariance, (held_indices, A))`` with the alias of the parameters the calibration held
+            (a plan's ``held_indices`` and ``alias``): a held parameter keeps its table tolerance, and the
+            calibration absorbs its deviation ``dh`` into the calibrated ones, which deviate by ``n - A dh``
+            (``n`` normal with the covariance); without the alias the held ones are independent of them.
         labels: station names (default ``1..N``).
         progress: hears the share of the Monte Carlo's samples done (:func:`~.monte_carlo.monte_carlo`).
         keep_samples: keep the Monte Carlo's samples of the first ``keep_samples`` stations (``Budget.kept``).
@@ -322,6 +340,8 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     cal_set = set(cal[0].tolist()) if cal is not None else set()
     shift = np.array([t.mean if t is not None and j not in cal_set and abs(t.mean) > 1e-9 * t.std else 0.0
                       for j, t in enumerate(tols)])     # (a symmetric range's mean is its rounding: none)
+    if cal is not None and cal[2] is not None:   # where the calibration puts the fitted ones: -A (held means)
+        shift[cal[0]] -= cal[2][1] @ shift[cal[2][0]]
     lower, upper = params.bounds
     th_c = np.clip(th + shift, lower, upper)
     with drawn_from(table):      # a range's centre may break the triangles that each end keeps
@@ -356,7 +376,13 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms,
                   mc_max=mc_max, mean=mean, std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,
                   warnings=_warnings(labels_t, rss, mc_rms, worst, max_inside, samples) if samples else (),
-                  kept=kept)
+                  kept=kept, compensated=_compensated(params.names, tols, cal))
+
+
+def _compensated(names: Sequence[str], tols: list[Tolerance | None], cal: Calibrated | None) -> tuple[str, ...]:
+    """The names of the tolerated parameters held by a calibration with an alias (:attr:`Budget.compensated`)."""
+    held = [] if cal is None or cal[2] is None else cal[2][0].tolist()
+    return tuple(names[j] for j in sorted(held) if tols[j] is not None)
 
 
 def _warnings(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, Array], worst: dict[str, Array],

@@ -15,7 +15,7 @@ from ..errors import InputError, LimitError, brief
 from ..inputs.validation import float_array
 from .core_model import TILT_MARGIN, platform_tilts
 from .model import PoseModel
-from .monte_carlo import Calibrated
+from .monte_carlo import Alias, Calibrated
 from .tolerances import Tolerance, ToleranceTable
 
 Array = NDArray[np.float64]
@@ -47,15 +47,16 @@ def check_stations(model: PoseModel, rods: Array, labels: tuple[str, ...]) -> No
 
 
 def check_calibrated(calibrated: Any, P: int) -> Calibrated:
-    """``(indices, covariance)`` of calibrated parameters, checked: distinct indices below ``P``, a finite,
-    symmetric, positive semi-definite covariance of matching size."""
-    if isinstance(calibrated, (str, bytes)) or not isinstance(calibrated, Sequence) or len(calibrated) != 2:
+    """``(indices, covariance)`` or ``(indices, covariance, alias)`` of calibrated parameters, checked: distinct
+    indices below ``P``, a finite, symmetric, positive semi-definite covariance of matching size; ``alias``: ``None``
+    or ``(held_indices, A)`` (:attr:`~.plan.MeasurementPlan.alias`), distinct indices below ``P`` that are not
+    calibrated and a finite ``A`` of shape ``(calibrated, held)``."""
+    if isinstance(calibrated, (str, bytes)) or not isinstance(calibrated, Sequence) or len(calibrated) not in (2, 3):
         raise InputError(f'calibrated = {brief(calibrated)}; allowed: a pair (indices, covariance) of the calibrated '
-                         'parameters (e.g. CalibrationResult.fitted and .covariance)')
-    try:
-        idx = np.asarray(calibrated[0]).ravel()
-    except (TypeError, ValueError):   # a ragged list
-        idx = np.array([], dtype=float)
+                         'parameters (e.g. CalibrationResult.fitted and .covariance), or a triple (indices, '
+                         'covariance, (held_indices, alias)) with the alias of the held parameters (e.g. a '
+                         'MeasurementPlan\'s)')
+    idx = _indices(calibrated[0])
     cov = float_array(calibrated[1], 'calibrated covariance', 'a finite symmetric matrix')
     if idx.dtype.kind not in 'iu' or len(set(idx.tolist())) != idx.size or np.any((idx < 0) | (idx >= P)):
         raise InputError(f'calibrated parameter indices must be distinct integers from 0 to {P - 1}')
@@ -65,7 +66,35 @@ def check_calibrated(calibrated: Any, P: int) -> Calibrated:
                          f'got shape {cov.shape}')
     if idx.size and np.linalg.eigvalsh(cov)[0] < -1e-9 * max(float(np.max(np.diag(cov))), 1e-300):
         raise InputError('calibrated covariance is not positive semi-definite')
-    return idx.astype(np.int64), cov
+    alias = None if len(calibrated) == 2 or calibrated[2] is None else _alias(calibrated[2], idx, P)
+    return idx.astype(np.int64), cov, alias
+
+
+def _indices(value: Any) -> NDArray[Any]:
+    try:
+        return np.asarray(value).ravel()
+    except (TypeError, ValueError):   # a ragged list
+        return np.array([], dtype=float)
+
+
+def _alias(alias: Any, idx: NDArray[Any], P: int) -> Alias:
+    """``(held_indices, A)`` of :func:`check_calibrated`, checked."""
+    if isinstance(alias, (str, bytes)) or not isinstance(alias, Sequence) or len(alias) != 2:
+        raise InputError(f'calibrated alias = {brief(alias)}; allowed: None or a pair (held_indices, A) with A of '
+                         f'shape ({idx.size}, number of held parameters) (MeasurementPlan.held_indices and .alias)')
+    held = _indices(alias[0])
+    if held.dtype.kind not in 'iu' or len(set(held.tolist())) != held.size or np.any((held < 0) | (held >= P)):
+        raise InputError(f'held parameter indices of the calibrated alias must be distinct integers from 0 to {P - 1}')
+    both = sorted(set(held.tolist()) & set(idx.tolist()))
+    if both:
+        raise InputError(f'held parameter indices of the calibrated alias {both} are calibrated as well; allowed: '
+                         'parameters the calibration holds (not fitted)')
+    A = float_array(alias[1], 'calibrated alias', f'a finite ({idx.size}, {held.size}) matrix')
+    if A.shape != (idx.size, held.size) or not np.all(np.isfinite(A)):
+        raise InputError(f'calibrated alias must be a finite ({idx.size}, {held.size}) matrix (calibrated x held '
+                         f'parameters), got shape {A.shape}' + ('' if A.shape != (idx.size, held.size) else
+                                                                ' with values not finite'))
+    return held.astype(np.int64), A
 
 
 def check_sources(table: ToleranceTable, tols: list[Tolerance | None], cal: Calibrated | None) -> None:

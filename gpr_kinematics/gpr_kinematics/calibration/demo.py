@@ -193,9 +193,12 @@ def run() -> None:
     print(f'\n== accuracy budget from {config_path(TOLERANCES).name}, before calibration')
     before = accuracy_budget(model, Q, table, tool=(0.3, 0.0, 0.1), samples=BUDGET_SAMPLES, labels=labels)
     print(format_budget(before))
-    print('\n== the same after this calibration (the calibrated parameters known to their covariance)')
+    print('\n== the same after this calibration (the calibrated parameters known to their covariance, the held ones '
+          'compensated through them)')
+    # res.bias.alias is how the fitted estimates move with the value a held parameter is held at: -A of a deviation
     after = accuracy_budget(model, Q, table, tool=(0.3, 0.0, 0.1), samples=BUDGET_SAMPLES, labels=labels,
-                            theta=res.estimate, calibrated=(res.fitted, res.covariance))
+                            theta=res.estimate,
+                            calibrated=(res.fitted, res.covariance, (res.bias.held, -res.bias.alias)))
     print(format_budget(after))
 
 

@@ -17,8 +17,12 @@ from .model import ParameterSet, PoseModel, evaluate, pose_error
 from .tolerances import Tolerance, ToleranceTable
 
 Array = NDArray[np.float64]
-#: Calibrated parameters: their indices and the covariance of their estimates.
-Calibrated = tuple[NDArray[np.int64], Array]
+#: The alias of held parameters on calibrated ones: the held parameters' indices ``(H,)`` and ``A (F, H)``, the fitted
+#: estimates ``f_true + A dh`` of a calibration that held them ``dh`` off (:attr:`~.plan.MeasurementPlan.alias`).
+Alias = tuple[NDArray[np.int64], Array]
+#: Calibrated parameters: their indices, the covariance of their estimates and the alias of the held ones on them
+#: (``None``: the held parameters independent of the calibrated ones).
+Calibrated = tuple[NDArray[np.int64], Array, Alias | None]
 
 #: Poses evaluated per Monte Carlo chunk (bounds memory).
 CHUNK_POSES = 200_000
@@ -62,7 +66,9 @@ def sample(src_tols: list[tuple[int, Tolerance]], cal: Calibrated | None, table:
            ) -> tuple[Array, Array, Array | None, NDArray[np.bool_]]:
     """Parameter deviations ``(S, P)``, rod-length errors ``(S, N, 3)``, joint displacements or ``None``, and per
     sample and station ``(S, N)`` whether every draw lies within the bounds the worst case takes (a normal one
-    within its 3 sigma, the calibration's within its 3-sigma ellipsoid)."""
+    within its 3 sigma, the calibration's within its 3-sigma ellipsoid). With the calibration's alias
+    ``(held, A)`` a calibrated parameter deviates by ``n - A dh`` (``n`` its estimate's noise, ``dh`` the held ones'
+    deviations: the calibration that held them at the model's values absorbed ``A dh`` into its estimates)."""
     dtheta = np.zeros((S, P))
     inside = np.ones((S, N), dtype=bool)
     for j, t in src_tols:
@@ -79,6 +85,9 @@ def sample(src_tols: list[tuple[int, Tolerance]], cal: Calibrated | None, table:
         dtheta[:, cal[0]] = z @ L.T
         w = (z @ V)[:, lam > 0.0]                    # the draw in the eigenbasis: x' C^+ x = |w|^2 where lam > 0
         inside &= (np.sum(w ** 2, axis=1) <= 9.0)[:, None]   # x' C^+ x <= 3^2
+        alias = cal[2] if len(cal) > 2 else None     # a pair (indices, covariance): no alias
+        if alias is not None and len(alias[0]):
+            dtheta[:, cal[0]] -= dtheta[:, alias[0]] @ alias[1].T
     dq = table.rod_length.sample(rng, (S, N, 3)) if table.rod_length is not None else np.zeros((S, N, 3))
     if table.rod_length is not None:
         inside &= np.all(within(dq, table.rod_length), axis=-1)

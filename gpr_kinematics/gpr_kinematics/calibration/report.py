@@ -152,6 +152,9 @@ def format_budget(b: Budget, top: int = 3) -> str:
     pcols = ''.join(f'{"MC p" + format(p, "g"):>11}' for p in b.percentiles) if b.samples else ''
     lines = [f'accuracy budget: {len(b.labels)} station(s), errors in the axes of {b.frame}; '
              + (f'{b.samples} Monte Carlo samples (seed {b.seed})' if b.samples else 'linearised only')]
+    if b.compensated:
+        lines.append(f'held by the calibration, compensated through the calibrated parameters (its alias): '
+                     f'{", ".join(b.compensated)}')
     for i, label in enumerate(b.labels):
         lines.append(f'station {label}: q = ({b.q[i, 0]:.6f}, {b.q[i, 1]:.6f}, {b.q[i, 2]:.6f}) m, tool '
                      f'({b.tool[i, 0]:.6g}, {b.tool[i, 1]:.6g}, {b.tool[i, 2]:.6g}) m in gpr_platform')

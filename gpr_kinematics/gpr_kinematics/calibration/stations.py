@@ -14,7 +14,8 @@
 Both return a :class:`~.budget.Budget` of the core model (:class:`~.core_model.CoreModel`: every parameter of the
 geometry file, ``compliant`` unless a model is named), optionally after a planned calibration
 (:func:`planned_calibration`: ``N`` configurations of ``gpr calibrate --plan N`` measured with the table's
-``measurement_noise``; the calibrated parameters are then known to the plan's covariance instead of the table).
+``measurement_noise``; the calibrated parameters are then known to the plan's covariance instead of the table, and
+the parameters the plan holds keep their tolerance, compensated through the calibrated ones by the plan's alias).
 """
 from __future__ import annotations
 
@@ -52,18 +53,20 @@ class BudgetOptions:
     keep_samples: int = 0
 
 
-def planned_calibration(model: CoreModel, table: ToleranceTable, n: int) -> tuple[NDArray[np.int64], Array]:
-    """``(indices, covariance)`` of the parameters a calibration from the ``n`` configurations of
-    :func:`~.plan.plan_measurements` determines, measured with the table's ``measurement_noise`` (the default
+def planned_calibration(model: CoreModel, table: ToleranceTable, n: int
+                        ) -> tuple[NDArray[np.int64], Array, tuple[NDArray[np.int64], Array]]:
+    """``(indices, covariance, (held_indices, alias))`` of the parameters a calibration from the ``n`` configurations
+    of :func:`~.plan.plan_measurements` determines, measured with the table's ``measurement_noise`` (the default
     tracker sigmas where it gives none), its standard deviations as the prior, made where its tolerances are
-    (:func:`~.tolerances.centre_of`: a ``kappa`` range's centre)."""
+    (:func:`~.tolerances.centre_of`: a ``kappa`` range's centre); the alias of the parameters it holds on them: the
+    calibration absorbs their deviations into the fitted ones (:attr:`~.plan.MeasurementPlan.alias`)."""
     from .plan import plan_measurements
     sp = table.sigma_position if table.sigma_position is not None else DEFAULT_SIGMA_POSITION
     sa = table.sigma_angle if table.sigma_angle is not None else DEFAULT_SIGMA_ANGLE
     with drawn_from(table):
         plan = plan_measurements(model, model.config, n, sigma_position=sp, sigma_angle=sa,
                                  prior=prior_of(table, model.parameters), theta=centre_of(table, model.parameters))
-    return plan.fitted, plan.covariance
+    return plan.fitted, plan.covariance, (plan.held_indices, plan.alias)
 
 
 def _budget(config: GprConfig, Q: Array, table: ToleranceTable, tool: ArrayLike, labels: Sequence[str],

@@ -19,8 +19,9 @@ Examples (bare names: the packaged files, :func:`~gpr_kinematics.inputs.resource
 ``--config FILE`` replaces the GPR geometry (e.g. a calibrated file; for a robot, the description's ``gpr``
 section), ``--model`` the virtual-joint model (default ``compliant``), ``--samples``/``--seed`` the Monte Carlo
 draws (0: linearised only), ``--calibration-plan N`` makes the budget after a calibration from the ``N``
-configurations of ``gpr calibrate --plan N`` measured with the table's ``measurement_noise``, ``--plot FILE.png``
-draws the Monte Carlo's samples of the first 4 stations against the budget's numbers
+configurations of ``gpr calibrate --plan N`` measured with the table's ``measurement_noise`` (the parameters the
+plan holds compensated through the calibrated ones by the plan's alias: ``compensated`` in the JSON),
+``--plot FILE.png`` draws the Monte Carlo's samples of the first 4 stations against the budget's numbers
 (:func:`~gpr_kinematics.calibration.budget_plot.budget_plot`).
 """
 from __future__ import annotations
@@ -91,7 +92,8 @@ def add_budget_options(p: argparse.ArgumentParser, finite: Callable[[str], float
     g.add_argument('--model', choices=MODELS, help='virtual-joint model of the budget (default compliant)')
     g.add_argument('--calibration-plan', type=whole, metavar='N',
                    help='the budget after calibrating from N planned configurations (gpr calibrate --plan N) '
-                        'measured with the table\'s measurement_noise')
+                        'measured with the table\'s measurement_noise (the parameters the plan holds compensated '
+                        'through the calibrated ones)')
     g.add_argument('--plot', metavar='FILE.png',
                    help='the Monte Carlo\'s distribution of each error of the first 4 stations against the worst '
                         'case, the RSS and the percentiles (needs matplotlib and samples)')
