@@ -878,3 +878,17 @@ def test_a_joint_typed_in_degrees_beyond_its_limit_is_named_as_typed(capsys, com
     status, out, err = run(capsys, 'robot', command, '--rods', '0.25', '0.25', '0.25', '--joints', '0', '2.967', '0',
                            '0', '--arm', 'arm2')   # radians typed: named in radians, as typed
     assert status == 2 and 'arm2_elbow = 2.967 rad is beyond its upper limit 2.9 rad' in err, err
+
+
+def test_metres_typed_under_mm_are_hinted_where_no_arm_reaches_the_station(capsys):
+    """`gpr robot ik --position 1.4 0.5 0.7 --mm` (metres typed) said only that rod 1 lies below its stroke; the
+    tilt's and the +-100 m check's refusals hint at the other unit, so does this one now, for a station within 10 mm of
+    the world's origin; a station out of reach far from it gets no such hint."""
+    status, out, err = run(capsys, 'robot', 'ik', '--position', '1.4', '0.5', '0.7', '--tilt', '1', '--heading', '0',
+                           '--arm', 'arm2', '--mm', '--deg')
+    assert (status, out, err.count('\n')) == (2, '', 1)
+    assert err.endswith(' (metres typed under --mm? --position (1.4, 0.5, 0.7) mm ((0.0014, 0.0005, 0.0007) m) lies '
+                        "within 10 mm of the world's origin)\n"), err
+    status, out, err = run(capsys, 'robot', 'ik', '--position', '1400', '500', '5000', '--tilt', '1', '--heading', '0',
+                           '--arm', 'arm2', '--mm', '--deg')
+    assert status == 2 and 'metres typed' not in err, err

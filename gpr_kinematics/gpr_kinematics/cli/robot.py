@@ -85,7 +85,12 @@ def _station_args(args: argparse.Namespace) -> Stations:
     return Stations.of([position], tilt, azimuth, heading)
 
 
+#: A ``--position`` typed under ``--mm`` with every coordinate below this [mm] that no arm reaches: metres typed?
+MM_AS_METRES = 10.0
+
+
 def _cmd_ik(args: argparse.Namespace) -> int:
+    from ..errors import GprError
     from ..robot.inverse import solve_stations
     robot = robot_of(args)
     value = None if args.redundancy is None else direction(args, args.redundancy, '--redundancy')
@@ -101,7 +106,14 @@ def _cmd_ik(args: argparse.Namespace) -> int:
         refusal = held_refusal(arm.joints[red.joint], value, '--redundancy = {}', args.deg)
         if refusal:
             raise InputError(refusal)
-    sol = solve_stations(robot, stations, args.arm, args.branch, redundancy_value=value)
+    try:
+        sol = solve_stations(robot, stations, args.arm, args.branch, redundancy_value=value)
+    except GprError as exc:   # metres typed under --mm: a station within 10 mm of the world's origin, out of reach
+        if not (args.mm and max(abs(v) for v in args.position) < MM_AS_METRES):
+            raise
+        point = typed_point(args, args.position, [v / 1000.0 for v in args.position])
+        raise type(exc)(f'{exc} (metres typed under --mm? --position {point} lies within {MM_AS_METRES:g} mm of '
+                        'the world\'s origin)') from None
     if args.json:
         emit_json(sol.record(0))
         return 0
