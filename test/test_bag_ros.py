@@ -743,6 +743,25 @@ def test_a_replay_in_a_namespace_names_the_remap_that_moves_its_legacy_joint_sta
         replay.stop()
 
 
+def test_a_suite_topic_outside_the_bags_namespace_is_replayed_as_recorded() -> None:
+    """A bag of /r1's suite with a root /joint_states beside it (30 made-up states, re-signed: gpr verify passes it,
+    noting the root topic as not verified): a replay in /r1 published both on /r1/joint_states, the unverified
+    states among the verified ones. A suite topic outside the bag's namespace keeps its recorded name now; the bag's
+    own go to the replay's namespace; a bag recorded at the root has its suite topics moved as before."""
+    import types
+
+    from gpr_kinematics.nodes.replay_node import ReplayNode
+    node = types.SimpleNamespace(resolve_topic_name=lambda name: f'/r1/{name}')
+    bag = types.SimpleNamespace(namespace='/r1', relative=lambda name: name[3:] if name.startswith('/r1/') else name)
+    named = {name: ReplayNode.published_name(node, bag, name)   # type: ignore[arg-type]
+             for name in ('/r1/joint_states', '/joint_states', '/gpr/geometry', '/r1/gpr/geometry', '/tf')}
+    assert named == {'/r1/joint_states': '/r1/joint_states', '/joint_states': '/joint_states',
+                     '/gpr/geometry': '/gpr/geometry', '/r1/gpr/geometry': '/r1/gpr/geometry', '/tf': '/tf'}
+    root = types.SimpleNamespace(namespace='', relative=lambda name: name)
+    assert ReplayNode.published_name(node, root, '/joint_states') == '/r1/joint_states'   # type: ignore[arg-type]
+    assert ReplayNode.published_name(node, root, '/tf') == '/tf'   # type: ignore[arg-type]
+
+
 @pytest.mark.parametrize('recorded_in', ['', '/r1'])
 @pytest.mark.slow
 def test_a_replay_in_a_namespace_publishes_the_suite_topics_there(tmp_path: Path, recorded_in: str) -> None:

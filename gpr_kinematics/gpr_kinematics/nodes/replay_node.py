@@ -137,10 +137,15 @@ class ReplayNode(GprNode):
             ' gpr verify judges whether it can be trusted (its bag.checksums fails); replaying it as it is')
 
     def published_name(self, bag: Any, name: str) -> str:
-        """Where the bag's topic ``name`` is published: a topic of the node suite (recorded at the root or in the
-        bag's namespace, :attr:`~gpr_kinematics.bags.reader.Bag.namespace`) in this node's namespace, as the nodes of
-        a replay launched in a namespace read it (``/gpr/joint_states`` of a bag recorded at the root is
-        ``/r1/gpr/joint_states`` for a replay in ``/r1``); any other topic (``/tf``, another node's) as recorded."""
+        """Where the bag's topic ``name`` is published: a topic of the node suite (recorded in the bag's namespace,
+        :attr:`~gpr_kinematics.bags.reader.Bag.namespace`, the root for a bag without one) in this node's namespace,
+        as the nodes of a replay launched in a namespace read it (``/gpr/joint_states`` of a bag recorded at the root
+        is ``/r1/gpr/joint_states`` for a replay in ``/r1``); any other topic (``/tf``, another node's, a suite's name
+        outside the bag's namespace, which gpr verify does not check) as recorded: a root ``/joint_states`` beside a
+        bag's ``/r1/joint_states`` was published with it, unverified states among the verified ones."""
+        ns = bag.namespace
+        if ns and not name.startswith(ns + '/'):
+            return name
         relative = bag.relative(name)
         return self.resolve_topic_name(relative.lstrip('/')) if relative in KNOWN_TOPICS else name
 
