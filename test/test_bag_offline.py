@@ -477,6 +477,44 @@ def test_a_generated_column_in_a_rosbag2_table_is_refused_at_once(tmp_path: Path
                          "allowed: rosbag2's stored tables")
 
 
+def test_rows_an_index_does_not_list_are_refused_before_any_is_read(tmp_path: Path, messages: list) -> None:
+    """The message bound counted the rows of the covering index timestamp_idx: rows inserted with the index detached
+    (writable_schema), then the index put back, were 8.5 million read past the bound of 8 million (1.3 GB) where
+    count(*) said 77, and quick_check does not compare an index with its table. The table's rows are counted, and an
+    index that lists fewer (rosbag2 plays in its order) is a corrupt database."""
+    write_messages(tmp_path / 'b', messages, storage='sqlite3')
+    db = tmp_path / 'b' / 'b_0.db3'
+    con = sqlite3.connect(db)
+    try:
+        index = con.execute("SELECT type, name, tbl_name, rootpage, sql FROM sqlite_master WHERE name = "
+                            "'timestamp_idx'").fetchone()
+        assert index is not None
+        listed = con.execute('SELECT count(*) FROM messages').fetchone()[0]
+        con.execute('PRAGMA writable_schema = ON')
+        con.execute("DELETE FROM sqlite_master WHERE name = 'timestamp_idx'")
+        con.commit()
+    finally:
+        con.close()
+    con = sqlite3.connect(db)
+    try:
+        con.executemany('INSERT INTO messages (topic_id, timestamp, data) VALUES (1, 0, ?)',
+                        [(b'\x00\x01\x00\x00',)] * 7)
+        con.commit()
+        con.execute('PRAGMA writable_schema = ON')
+        con.execute('INSERT INTO sqlite_master VALUES (?, ?, ?, ?, ?)', index)
+        con.commit()
+    finally:
+        con.close()
+    con = sqlite3.connect(db)
+    try:   # the forgery as the trial made it: the index's count, quick_check ok
+        assert con.execute('SELECT count(*) FROM messages').fetchone()[0] == listed
+        assert con.execute('PRAGMA quick_check').fetchone()[0] == 'ok'
+    finally:
+        con.close()
+    _refused_at_once(db, rf'b_0\.db3: corrupt SQLite3 database \(its messages table has {listed + 7} rows, an index '
+                         rf'of it {listed}\); allowed: indexes that match their tables, as rosbag2 writes them$')
+
+
 def test_a_virtual_table_in_place_of_a_rosbag2_table_is_refused(tmp_path: Path, messages: list) -> None:
     """A virtual table's rows come from its module (here the FTS index's, where the build has it)."""
     try:
@@ -867,3 +905,43 @@ def test_a_compliant_bags_report_plots_its_recorded_virtual_joints(tmp_path: Pat
     finally:
         for fig in figures.values():
             plt.close(fig)
+
+
+def test_a_platform_states_frame_is_a_frame_after_the_records_prefix_not_the_world() -> None:
+    """`state.frame`: a re-signed bag with every header's frame set to '', 'world' or 'evil' beside a record's
+    frame_prefix passed gpr verify (the other topics' frames were only matched to the states' own). The frame is a tf
+    frame name after the records' prefix, not the robot's world frame; without records (an older node's) any tf frame
+    name but the world frame."""
+    from gpr_kinematics.bags.checks_state import frame_check
+    frames = ['r1/gpr_base', 'r1/cell/gpr_base', 'gpr_base', 'r1/', '', 'r1/world', 'r1//x', 'evil/gpr_base']
+    c = {'header.frame_id': np.array(frames, dtype=object)}
+    samples = np.arange(len(frames))
+    failed = {f.sample for f in frame_check(c, samples, STATE, 'r1/', 'world').failures}
+    assert failed == {2, 3, 4, 5, 6, 7}
+    failed = {f.sample for f in frame_check(c, samples, STATE, None, 'world').failures}
+    assert failed == {3, 4, 6}   # no prefix recorded: any tf frame name ('r1/world' may be a base_frame's)
+    failed = {f.sample for f in frame_check(c, samples, STATE, '', 'gpr_base').failures}
+    assert failed == {2, 3, 4, 6}
+
+
+def test_a_platform_state_with_an_empty_frame_fails_verification(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    bag = read_bag(REFERENCE)
+    store = typestore()
+    out = []
+    for topic in bag.topics.values():
+        for t, raw in zip(topic.log_time.tolist(), topic.raw, strict=True):
+            if topic.name == STATE:
+                msg = store.deserialize_cdr(raw, 'gpr_interfaces/msg/PlatformState')
+                msg.header.frame_id = ''
+                raw = bytes(store.serialize_cdr(msg, 'gpr_interfaces/msg/PlatformState'))
+            out.append((topic.name, t, raw))
+    out.sort(key=lambda m: m[1])
+    with SegmentedBagWriter(tmp_path / 't', {n: bag.topics[n].msgtype for n in bag.topics}, flush_interval=0,
+                            fsync=False) as w:
+        for topic, t, raw in out:
+            w.write(topic, t, raw)
+    status, text, _ = run_cli('verify', str(tmp_path / 't'), capsys=capsys)
+    assert status == 1 and "FAIL state.frame on /gpr/platform_state at sample 0: value 1 > limit 0 (header.frame_id " \
+        "is not a tf frame name, other than the robot's world frame 'world' (trajectory_node's base_frame))" in text, \
+        text[-2000:]

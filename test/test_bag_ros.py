@@ -760,6 +760,13 @@ def test_a_suite_topic_outside_the_bags_namespace_is_replayed_as_recorded() -> N
     root = types.SimpleNamespace(namespace='', relative=lambda name: name)
     assert ReplayNode.published_name(node, root, '/joint_states') == '/r1/joint_states'   # type: ignore[arg-type]
     assert ReplayNode.published_name(node, root, '/tf') == '/tf'   # type: ignore[arg-type]
+    # a recorded name that is no full name was expanded in the replay ('/{node}/geometry': /replay_node/geometry)
+    from gpr_kinematics.bags.errors import BagError
+    root.path = 'b'
+    for name in ('/{node}/geometry', '~/markers', 'gpr/markers'):
+        with pytest.raises(BagError, match=rf"^b: topic '{re.escape(name)}' is not a full ROS topic name \(.*\); "
+                                           r'allowed: the absolute names rosbag2 records \(/gpr/platform_state\)$'):
+            ReplayNode.published_name(node, root, name)   # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize('recorded_in', ['', '/r1'])

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from ..core import STROKE_SLACK, TILT_LIMIT_SLACK, ForwardBatch, forward_batch
 from ..core.config import MODELS, GprConfig
-from ..core.messages import STATE_FROM_RESULT
+from ..core.messages import STATE_FROM_RESULT, is_frame_name
 from ..errors import GprError
 from .cdr import Columns
 from .columns import field_matrix, matrix, quaternion_angle, row_sizes, wrapped
@@ -221,3 +221,19 @@ def state_checks(c: Columns, samples: NDArray[np.int64], topic: str, cfg: GprCon
                     commanded_tilt=np.asarray(c['commanded_tilt'], dtype=float), crossings=crossings,
                     virtual_counts=row_sizes(c['virtual_joints']))
     return StateOutcome(checks, series, solved)
+
+
+def frame_check(c: Columns, samples: NDArray[np.int64], topic: str, prefix: str | None, world: str | None) -> Check:
+    """``state.frame``: every PlatformState's ``header.frame_id`` a tf frame name (trajectory_node's ``base_frame``
+    with its ``frame_prefix``), starting with the ``prefix`` the records name (None: not recorded, any) and longer than
+    it, and not the robot's ``world`` frame with it (None: no robot known; the node refuses such a ``base_frame``).
+    A re-signed bag with every frame set to ``''``, ``world`` or ``evil/gpr_base`` beside a record's prefix ``r1/``
+    passed: the other topics' frames are only matched to the states' own."""
+    p = prefix or ''
+    ok = np.array([is_frame_name(f) and (prefix is None or (f.startswith(p) and len(f) > len(p)))
+                   and (world is None or f[len(p):] != world if f.startswith(p) else True)
+                   for f in (str(v) for v in c['header.frame_id'])], dtype=bool)
+    after = f" after the records' frame_prefix {prefix!r}" if prefix is not None else ''
+    other = f", other than the robot's world frame {world!r}" if world is not None else ''
+    return bool_check('state.frame', topic, ok, samples, f'header.frame_id is not a tf frame name{after}{other} '
+                      "(trajectory_node's base_frame)")

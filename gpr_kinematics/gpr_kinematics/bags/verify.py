@@ -43,7 +43,7 @@ from .checks_bag import bag_checks
 from .checks_joints import joint_state_checks
 from .checks_program import marker_cadence, program_checks, read_records, robot_program_states
 from .checks_robot import arm_joint_names, choose_robot, robot_checks, robot_summary
-from .checks_state import state_checks
+from .checks_state import frame_check, state_checks
 from .checks_stream import singular_crossings, stream_checks
 from .checks_topics import topic_checks
 from .checks_wafer import wafer_pose_checks
@@ -158,6 +158,8 @@ def verify_bag(bag: Bag | str | Path, config: GprConfig | None = None, tolerance
                 fewer = bag.topic(ROBOT_STATE_TOPIC) is None and (
                     not recorded[0] or any(r.kind == ROBOT_PROGRAM for r in recorded[0]))
                 robot_joints = arm_joint_names(arms.robot) if arms.robot is not None and fewer else None
+                checks += [frame_check(c, samples, st.name, recorded_prefix(recorded[0]),
+                                       arms.robot.world_frame if arms.robot is not None else None)]
                 checks += state.checks + stream.checks + topic_checks(
                     bag, c, samples, state.series, geo.config, tol.consistency, robot_rows,
                     marker_cadence(recorded[0], samples), robot_joints, due) + robot_part

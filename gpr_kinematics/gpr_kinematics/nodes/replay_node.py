@@ -36,7 +36,9 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from rclpy.exceptions import NameValidationException
 from rclpy.executors import Executor
+from rclpy.validate_full_topic_name import validate_full_topic_name
 
 from ..bags.checks_bag import checksum_check
 from ..bags.errors import BagError
@@ -143,6 +145,11 @@ class ReplayNode(GprNode):
         is ``/r1/gpr/joint_states`` for a replay in ``/r1``); any other topic (``/tf``, another node's, a suite's name
         outside the bag's namespace, which gpr verify does not check) as recorded: a root ``/joint_states`` beside a
         bag's ``/r1/joint_states`` was published with it, unverified states among the verified ones."""
+        try:   # as recorded, a full name (rosbag2's): '/{node}/geometry' or '~/markers' were expanded in this node
+            validate_full_topic_name(name)
+        except NameValidationException as exc:
+            raise BagError(f'{bag.path}: topic {name[:200]!r} is not a full ROS topic name ({str(exc).splitlines()[0]}'
+                           '); allowed: the absolute names rosbag2 records (/gpr/platform_state)') from None
         ns = bag.namespace
         if ns and not name.startswith(ns + '/'):
             return name
