@@ -122,11 +122,12 @@ def test_gpr_rods_tilt_and_displacements_match_the_core_forward_kinematics():
     assert np.allclose(np.angle(np.exp(1j * (fb.tilt_azimuth - az))), 0.0, atol=1e-10)
     assert np.allclose(q.mean(axis=1), pts[:, 0], atol=1e-15)
     g = model.evaluate(pts)
-    assert np.allclose(np.abs(g[:, 3:]), fb.joint_displacement, atol=1e-15)
-    assert np.allclose(fb.virtual_joints - model.R, g[:, 3:], atol=1e-15)
+    assert np.allclose(np.abs(g[:, 3:6]), fb.joint_displacement, atol=1e-15)
+    assert np.allclose(fb.virtual_joints - model.R, g[:, 3:6], atol=1e-15)
+    assert np.array_equal(g[:, 6], np.abs(g[:, 3:6]).max(axis=1))   # dl_max, the largest
     # untilted: no displacement; within_budget agrees with the model's constraint
     assert np.all(model.evaluate(np.array([[0.2, 0.0, 0.0]]))[0, 3:] == 0.0)
-    inside_budget = np.all(np.abs(g[:, 3:]) <= model.budget, axis=1)
+    inside_budget = np.all(np.abs(g[:, 3:6]) <= model.budget, axis=1)
     assert np.array_equal(inside_budget, fb.within_budget)
 
 

@@ -34,7 +34,7 @@ from ..inputs.safe_yaml import YamlValue, load_text
 from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
 from ..workspace.base import DEFAULT_MAX_SECONDS, check_delta, check_max_boxes, check_max_seconds, workspace_report
-from ..workspace.boxes import reached_faces
+from ..workspace.boxes import closed_faces, reached_faces
 from ..workspace.levels import PARTS
 from ..workspace.progress import StopFlag
 from ..workspace.scheduler import MAX_WORKERS, check_scheduler
@@ -222,7 +222,8 @@ def run(args: argparse.Namespace) -> int:
           f'{result.outer_volume:.6g} {report.volume_units}, {result.seconds:.2f} s'
           + (' (interrupted)' if result.interrupted else ''))
     if result.touches_initial_box:
-        faces = ', '.join(result.variables[k] for k in reached_faces(report.box, result.inner, result.boundary))
+        faces = ', '.join(result.variables[k] for k in reached_faces(report.box, result.inner, result.boundary,
+                                                                     closed=closed_faces(model, report.box)))
         print(f'note: the approximation reaches the faces of the initial box (workspace.box) in {faces}; the '
               'workspace may extend beyond it')
     for note in notes:

@@ -37,18 +37,30 @@ def bisect(boxes: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return out
 
 
-def touches(box: np.ndarray, *arrays: np.ndarray) -> bool:
-    """True when some of the (n, d, 2) boxes reach a face of the initial ``box`` (d, 2)."""
-    return bool(reached_faces(box, *arrays))
+def closed_faces(model: Any, box: np.ndarray) -> np.ndarray | None:
+    """The faces of ``box`` (d, 2) beyond which ``model`` has no workspace (its ``closed_faces(box)``; None: a model
+    without)."""
+    faces = getattr(model, 'closed_faces', None)
+    return None if faces is None else np.asarray(faces(box), dtype=bool)
 
 
-def reached_faces(box: np.ndarray, *arrays: np.ndarray) -> tuple[int, ...]:
-    """The variables (indices) at whose faces of the initial ``box`` (d, 2) some of the (n, d, 2) boxes lie."""
-    hit = np.zeros(box.shape[0], dtype=bool)
+def touches(box: np.ndarray, *arrays: np.ndarray, closed: np.ndarray | None = None) -> bool:
+    """True when some of the (n, d, 2) boxes reach a face of the initial ``box`` (d, 2) not ``closed``."""
+    return bool(reached_faces(box, *arrays, closed=closed))
+
+
+def reached_faces(box: np.ndarray, *arrays: np.ndarray, closed: np.ndarray | None = None) -> tuple[int, ...]:
+    """The variables (indices) at whose faces of the initial ``box`` (d, 2) some of the (n, d, 2) boxes lie, but for
+    the faces ``closed`` (d, 2) marks: the model's own bounds there, beyond which no workspace lies (the GPR's height
+    within the stroke, its box's z: "the workspace may extend beyond it" was said of it)."""
+    lo, hi = np.zeros(box.shape[0], dtype=bool), np.zeros(box.shape[0], dtype=bool)
     for a in arrays:
         if a.shape[0]:
-            hit |= np.any(a[:, :, 0] <= box[:, 0], axis=0) | np.any(a[:, :, 1] >= box[:, 1], axis=0)
-    return tuple(int(k) for k in np.flatnonzero(hit))
+            lo |= np.any(a[:, :, 0] <= box[:, 0], axis=0)
+            hi |= np.any(a[:, :, 1] >= box[:, 1], axis=0)
+    if closed is not None:
+        lo, hi = lo & ~closed[:, 0], hi & ~closed[:, 1]
+    return tuple(int(k) for k in np.flatnonzero(lo | hi))
 
 
 #: At most this many (box, cell) registrations of :func:`contains_points`' bucket grid (coarser cells beyond: many

@@ -44,7 +44,7 @@ from .base import (
     check_max_seconds,
     most_boxes,
 )
-from .boxes import bisect, box_volume, scaled_diameter, touches
+from .boxes import bisect, box_volume, closed_faces, scaled_diameter, touches
 from .grid import check_grid_nodes, grid_classify, uniform
 from .levels import PARTS, LocalContext, Outcome, cover_part, decided_volume, distribute_at, run_levels
 from .progress import Progress, StopFlag
@@ -392,7 +392,8 @@ def _result(model: Any, method: str, delta: float, box: np.ndarray, out: Outcome
         levels=out.levels,
         interrupted=bool(out.stopped),
         certified=(method == 'covering'),
-        touches_initial_box=touches(box, inner_arr, bnd_arr) and not getattr(model, 'box_contains_workspace', False),
+        touches_initial_box=touches(box, inner_arr, bnd_arr, closed=closed_faces(model, box))
+        and not getattr(model, 'box_contains_workspace', False),
         stopped=out.stopped,
         extra=extra,
         outside=(np.concatenate(out.outside) if out.outside else np.empty((0, k, 2))) if keep_outside else None,

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import InputError, brief
 from .base import DEFAULT_MAX_SECONDS, WorkspaceModel, WorkspaceResult, default_max_boxes
-from .boxes import touches
+from .boxes import closed_faces, touches
 from .progress import StopFlag
 
 #: Most grid nodes inside one box for the grid method (``grid_nodes ** d``).
@@ -133,6 +133,6 @@ def uniform(model: WorkspaceModel, delta: float, box: np.ndarray, max_seconds: f
         interrupted=bool(stopped),
         stopped=stopped,
         certified=False,
-        touches_initial_box=touches(box, inner, bnd),
+        touches_initial_box=touches(box, inner, bnd, closed=closed_faces(model, box)),
         extra={'grid_cells': cells.tolist()},
     )
