@@ -261,8 +261,9 @@ def test_a_lagging_robot_prints_the_end_once_then_by_progress(ros_environment, t
 def test_a_signal_while_the_goal_runs_cancels_it_and_ends_with_one_line(ros_environment):
     """Ctrl-C or SIGTERM while a goal ran: the handler's KeyboardInterrupt, raised while rclpy converted a feedback
     message, became a TypeError ("Unable to convert function return value"): 47-56 lines of traceback, exit 1, and the
-    goal ran on to its end (a trial: 2 of 6 signals at a simulator's 1 kHz). The signal is noted while the goal is
-    followed: the goal is cancelled, then the command ends as interrupted (130) or terminated (143), one line."""
+    goal ran on to its end (a trial: 2 of 6 signals at a simulator's 1 kHz; the old code failed this test). The
+    signal is noted while the goal is followed: the goal is cancelled, then the command ends as interrupted (130) or
+    terminated (143), one line."""
     import signal
     import time
 
@@ -271,7 +272,7 @@ def test_a_signal_while_the_goal_runs_cancels_it_and_ends_with_one_line(ros_envi
     try:
         wait_for_log(sim, rf'serving {ns}/')
         for k, (signum, status, word) in enumerate([(signal.SIGINT, 130, 'interrupted'),
-                                                    (signal.SIGTERM, 143, 'terminated')] * 2):
+                                                    (signal.SIGTERM, 143, 'terminated')]):
             proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics.cli.main', 'program', 'send', PROGRAM,
                                      '--namespace', ns], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                     env=dict(os.environ))
@@ -291,7 +292,7 @@ def test_a_signal_while_the_goal_runs_cancels_it_and_ends_with_one_line(ros_envi
                                   '--namespace', ns], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                  env=dict(os.environ))
         end = time.monotonic() + 120
-        while sim.output().count('goal accepted') <= 4 and first.poll() is None and time.monotonic() < end:
+        while sim.output().count('goal accepted') <= 2 and first.poll() is None and time.monotonic() < end:
             time.sleep(0.05)
         second = _send(PROGRAM, '--namespace', ns)
         first.send_signal(signal.SIGINT)
@@ -300,6 +301,6 @@ def test_a_signal_while_the_goal_runs_cancels_it_and_ends_with_one_line(ros_envi
         assert re.fullmatch(r'gpr program send: the robot is moving: \w+ went [\d.e-]+ (m|rad) while the move from '
                             r'where it was was planned \(another goal under way\?\); allowed: a robot at rest \(wait '
                             r'for its goal to end, or cancel it\)\n', second.stderr), second.stderr
-        assert sim.output().count('goal accepted') == 5, sim.output()   # the second was not sent
+        assert sim.output().count('goal accepted') == 3, sim.output()   # the second was not sent
     finally:
         sim.stop()
