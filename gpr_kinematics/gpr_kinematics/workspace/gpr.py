@@ -195,10 +195,10 @@ class GprModel(WorkspaceModel):
         dl = [Interval(np.nextafter(v.lo - rem, -_INF), np.nextafter(v.hi + rem, _INF)) for v in lin_dl]
         # e = |dl|_inf: its upper bound the dl_k's (the same inside test), and where 6 m >= R (no upper bound) a
         # lower one that holds for any solution: e + 1.5 e^2 / R >= |dl_lin|_inf >= M (its least over the box), so
-        # e >= R/3 (sqrt(1 + 6 M / R) - 1): boxes far beyond the budget are proved outside (a tilt box of +-1 rad
-        # left 2.2 million boundary boxes whose outer volume did not shrink with delta)
-        big = np.maximum.reduce([np.maximum(np.abs(v.lo), np.abs(v.hi)) for v in dl])
-        least = np.maximum.reduce([np.where((v.lo > 0) | (v.hi < 0), np.minimum(np.abs(v.lo), np.abs(v.hi)), 0.0)
-                                   for v in lin_dl]) * (1 - 1e-12)
-        low = np.where(ok, 0.0, R / 3.0 * (np.sqrt(1.0 + 6.0 * least / R) - 1.0) * (1 - 1e-9))
+        # e >= R/3 (sqrt(1 + 6 M / R) - 1) = 2 M / (1 + sqrt(1 + 6 M / R)) (e1's form, no cancellation): boxes far
+        # beyond the budget are proved outside (a tilt box of +-1 rad left 2.2 million boundary boxes whose outer
+        # volume did not shrink with delta)
+        big = np.maximum.reduce([v.abs().hi for v in dl])
+        least = np.maximum.reduce([v.abs().lo for v in lin_dl]) * (1 - 1e-12)
+        low = np.where(ok, 0.0, 2.0 * least / (1.0 + np.sqrt(1.0 + 6.0 * least / R)) * (1 - 1e-9))
         return [*q, *dl, Interval(low, big)]
