@@ -231,8 +231,7 @@ def frame_check(c: Columns, samples: NDArray[np.int64], topic: str, prefix: str 
     passed: the other topics' frames are only matched to the states' own."""
     p = prefix or ''
     ok = np.array([is_frame_name(f) and (prefix is None or (f.startswith(p) and len(f) > len(p)))
-                   and (world is None or f[len(p):] != world if f.startswith(p) else True)
-                   for f in (str(v) for v in c['header.frame_id'])], dtype=bool)
+                   and (world is None or f != p + world) for f in (str(v) for v in c['header.frame_id'])], dtype=bool)
     after = f" after the records' frame_prefix {prefix!r}" if prefix is not None else ''
     other = f", other than the robot's world frame {world!r}" if world is not None else ''
     return bool_check('state.frame', topic, ok, samples, f'header.frame_id is not a tf frame name{after}{other} '
