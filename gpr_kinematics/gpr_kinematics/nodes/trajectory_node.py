@@ -160,7 +160,7 @@ class TrajectoryNode(GprNode):
         self._lock = threading.Lock()   # the goal callback, the executing thread and the timer run apart
         self._closing = False
         self.index = 0
-        self.sent = 0
+        self.sent = self._origin_ns = 0   # _origin_ns: the ROS clock's reading at the pace clock's 0 (wall)
         self.started_at: float | None = None
         self._wait_start = time.monotonic()
         self._ready_since: float | None = None
@@ -253,12 +253,12 @@ class TrajectoryNode(GprNode):
             if not self._ready():
                 return
             self.started_at = self.pace_clock()
-            self.sent = 0
+            self.sent, self._origin_ns = 0, self.get_clock().now().nanoseconds - round(self.started_at * NS_PER_S)
             self._paced = (self.started_at, 0.0)
             self.get_logger().info(f'started: publishing {len(self.stream)} samples at {self.p["rate"]} Hz '
                                    f'({"goal" if self.goal else self.p["mode"]}'
                                    f'{", looping" if self.p["loop"] and not self.goal else ""})')
-        now, start, ros_ns = self.pace_clock(), self.started_at, self.get_clock().now().nanoseconds
+        now, start = self.pace_clock(), self.started_at   # (a simulated clock may start at 0.0)
         if start is not None and now < self._paced[0] - self.period:   # a simulated clock set back: the rest of the
             self._paced = (now, self._paced[1] + self._paced[0] - start)   # stream from now on, at its rate
             self.get_logger().info(f'the simulated clock went back to {now:.3f} s: the stream goes on from sample '
@@ -267,8 +267,8 @@ class TrajectoryNode(GprNode):
         self._paced = (now, self._paced[1])
         due = int((now - (now if start is None else start)) / self.period) + 1
         for _ in range(max(1, min(due - self.sent, self.catch_up()))):
-            self._due_ns = None if start is None else round((start + self.sent * self.period) * NS_PER_S) \
-                if self.simulated else ros_ns - round((now - start - self.sent * self.period) * NS_PER_S)
+            self._due_ns = None if start is None else round((start + self.sent * self.period) * NS_PER_S) + (
+                0 if self.simulated else self._origin_ns)   # the wall's offset taken once: not a jitter per tick
             if self.stream is None or not self._step(self.stream):
                 return
 
