@@ -183,7 +183,7 @@ def test_after_a_simulated_clock_set_back_the_stream_keeps_its_rate(ros_environm
     with _simulated_clock('/traj_fix_back', 100_000_000, 0.1) as (c, msgs, now):
         assert c.spin_until(lambda: len(msgs['gpr/platform_state']) > 10, 30)
         now['ns'] = 10 * 10**9
-        c.spin_for(2.0)
+        c.spin_for(4.0)   # 2 s gave a loaded fresh-clone run (three test runs at once) 83 of the 100 samples
     stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs['gpr/platform_state']])
     after = stamps[stamps < 20 * 10**9]
     assert len(after) >= 100, (len(after), np.diff(after)[:10])
