@@ -463,3 +463,58 @@ def test_dexterity_json_writes_an_infinite_condition_number_as_null(capsys):
                          '0.2', '2', '--json')
     data = json.loads(out)['condition_number']
     assert code == 0 and [row[0] for row in data] == [None, None] and all(c > 1 for c in (data[0][1], data[1][1]))
+
+
+@pytest.mark.parametrize('command', ['mechanism', 'accuracy'])
+def test_a_platform_turned_over_by_degrees_typed_as_radians_is_refused_with_the_hint(capsys, command):
+    """Alwan's first pose (section 5, printed in degrees) typed as radians: theta = 2 rad turns the platform over
+    (its normal 114.6 deg from the base's), and the legs came out 2.407 ... 2.170 m with exit 0; with --deg the
+    paper's first leg, 2.003 m."""
+    errors = ['--errors'] + ['0.0001'] * 6 if command == 'accuracy' else []
+    pose = ['--pose', '0.66', '-0.35', '1.8', '-5', '2', '1.4']
+    code, out, err = run(capsys, command, 'stewart_alwan.yaml', *pose, *errors)
+    assert code == 2 and out == ''
+    assert err == (f'gpr {command}: error: Gough-Stewart platform (Alwan 2011): --pose A B C = -5 2 1.4 rad turn the '
+                   "platform over (its normal 114.6 deg from the base's z axis); allowed: a platform tilted less than "
+                   '90 deg (degrees given as radians? give --deg)\n'), err
+    code, out, err = run(capsys, 'mechanism', 'stewart_alwan.yaml', *pose, '--deg', '--json')
+    assert code == 0 and err == ''
+    assert json.loads(out)['joints'][0]['value'] == pytest.approx(2.00325, abs=1e-5)
+    # Independently: Z-X-Z of (-5, 2, 1.4) rad puts the platform's z axis at cos(2) below the horizontal
+    assert math.degrees(math.acos(math.cos(2.0))) == pytest.approx(114.59, abs=0.01)
+
+
+def test_a_platform_tilted_far_by_degrees_typed_as_radians_is_warned_and_analysed(capsys):
+    """Toz & Kucuk's angles (5, -5, -10) typed as radians tilt the GSP 85.4 deg: analysed (it is a pose), with the
+    hint on stderr; as degrees no warning; a tilt of 30 deg typed in radians no warning."""
+    code, out, err = run(capsys, 'mechanism', 'gsp_d3_6.yaml', '--pose', '0.01', '-0.01', '0.138', '5', '-5', '-10')
+    assert code == 0 and out
+    assert err == ('gpr mechanism: warning: --pose A B C = 5 -5 -10 rad tilt the platform 85.38 deg from its base '
+                   '(degrees given as radians? give --deg)\n'), err
+    R = np.array([[1, 0, 0], [0, math.cos(5), -math.sin(5)], [0, math.sin(5), math.cos(5)]])   # Rx(A)
+    R = np.array([[math.cos(-5), 0, math.sin(-5)], [0, 1, 0], [-math.sin(-5), 0, math.cos(-5)]]) @ R   # Ry(B)
+    assert math.degrees(math.acos(R[2, 2])) == pytest.approx(85.38, abs=0.005)   # Rz(C) keeps the normal's z
+    for pose, deg in ((['5', '-5', '-10'], ['--deg']), (['0.5', '0', '0'], [])):
+        code, out, err = run(capsys, 'mechanism', 'gsp_d3_6.yaml', '--pose', '0.01', '-0.01', '0.138', *pose, *deg)
+        assert code == 0 and err == '', err
+
+
+@pytest.mark.parametrize('name, pose, wrong', [
+    ('tripod_3rps.yaml', ['5', '5', '0.1', '0.2', '0.3', '1'], 'X Y C = 5, 5, 1'),
+    ('tripod_3rps.yaml', ['0', '0', '0.1', '0.2', '0.3', '0.5'], 'C = 0.5'),
+    ('gpr.yaml', ['1', '1', '0.3', '0.01', '0', '0.5'], 'X Y C = 1, 1, 0.5')])
+def test_pose_values_the_mechanism_sets_given_otherwise_are_refused(capsys, name, pose, wrong):
+    """The tripod's X, Y, C (parasitic) and the GPR's (outcomes of its virtual joints) were dropped without a word
+    (the tripod analysed at x = 0.00066 m for X = 5); 0 is ignored, the values the mechanism sets are taken back."""
+    code, out, err = run(capsys, 'mechanism', name, '--pose', *pose)
+    assert code == 2 and out == ''
+    assert re.fullmatch(rf'gpr mechanism: error: .*: --pose {wrong} are set by the mechanism from Z A B \(.* at this '
+                        r'pose\); allowed: 0 \(ignored\) or those values\n', err), err
+    zeroed = ['0' if i in (0, 1, 5) else v for i, v in enumerate(pose)]
+    code, out, err = run(capsys, 'mechanism', name, '--pose', *zeroed, '--json')
+    assert code == 0 and err == ''
+    full = json.loads(out)['pose']
+    typed_back = [f'{v:.9g}' for v in full.values()]
+    code, out, err = run(capsys, 'mechanism', name, '--pose', *typed_back, '--json')
+    assert code == 0 and err == '', err
+    assert list(json.loads(out)['pose'].values()) == pytest.approx(list(full.values()), abs=1e-12)

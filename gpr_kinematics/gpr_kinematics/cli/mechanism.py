@@ -11,7 +11,7 @@ convention of the mechanism:
 - ``stewart_6sps`` (Alwan): Z-X-Z intrinsic, A, B, C = psi, theta, phi, scipy ``from_euler('ZXZ', ...)``;
 - ``upu3``: translation only, A B C must be 0 (ignored);
 - ``tripod_3rps``: A, B = theta (about y), psi (about x), R = Ry(theta) Rx(psi) Rz(phi); X, Y and C = phi
-  are the parasitic motions (outcomes, ignored on input);
+  are the parasitic motions (outcomes: 0 or their values on input, others refused);
 - ``gpr``: A, B = tilt rotation vector (tilt_x, tilt_y); X, Y and C = twist are outcomes.
 
 Outputs are SI. Bad input (unknown constraint type, degenerate line, pose outside the joint limits,

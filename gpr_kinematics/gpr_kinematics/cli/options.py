@@ -31,9 +31,9 @@ CONVENTIONS = """pose convention (X Y Z A B C, m and rad unless --mm/--deg):
   stewart_6sps  Z-X-Z intrinsic Euler angles (psi, theta, phi) = scipy from_euler('ZXZ', [A, B, C])
   upu3          translation only: A B C must be 0
   tripod_3rps   A = theta (about y), B = psi (about x); R = Ry(theta) Rx(psi) Rz(phi); X, Y, C = phi are
-                parasitic motions computed by the mechanism (ignored on input)
+                parasitic motions computed by the mechanism (give 0 or their values)
   gpr           A, B = tilt rotation vector (tilt_x, tilt_y) = tilt (cos azimuth, sin azimuth); X, Y and
-                C = twist are outcomes of the virtual-joint model (ignored on input)
+                C = twist are outcomes of the virtual-joint model (give 0 or their values)
 angular velocities and inverse-Jacobian columns: v_x v_y v_z w_x w_y w_z, w in the base frame"""
 
 
@@ -201,7 +201,68 @@ def mechanism_pose(args: argparse.Namespace, mech: Mechanism) -> np.ndarray:
     from ..mechanisms.gpr import GprMechanism
     if isinstance(mech, GprMechanism):   # the tilt the core refuses, with the hint of degrees typed as radians
         pose_tilt(args, float(pose[3]), float(pose[4]), mech.config)
+    elif mech.kind != 'upu3':
+        _platform_tilt(args, mech, pose)
+    _parasitic_given(args, mech, pose)
     return pose
+
+
+#: A platform tilted this far [rad] from its base (45 deg) by angles typed as radians that read as degrees would tilt
+#: it less: warned as degrees given as radians (Alwan's and Toz & Kucuk's poses are printed in degrees).
+TILT_WARNED = math.pi / 4
+
+
+def _platform_tilt(args: argparse.Namespace, mech: Mechanism, pose: np.ndarray) -> None:
+    """Refuse a ``--pose`` whose angles turn the platform over (its normal 90 deg or more from the base's: no
+    platform on legs gets there, and the joint values computed are meaningless), warn where they tilt it beyond
+    :data:`TILT_WARNED` and would not read as degrees; each with :data:`DEGREES_HINT` where the angles read as degrees
+    would tilt it less (``--pose 0.66 -0.35 1.8 -5 2 1.4``: Alwan's first pose in degrees, upside down in radians)."""
+    def tilt(p: np.ndarray) -> float:
+        full = mech.complete_pose(p) if not mech.undetermined(p[None])[0] else p
+        return math.acos(min(1.0, max(-1.0, float(mech.rotation(full[None])[0, 2, 2]))))
+
+    angle = tilt(pose)
+    if angle <= TILT_WARNED:
+        return
+    degrees = pose.copy()
+    degrees[3:] = np.radians(np.asarray(args.pose[3:], dtype=float))
+    hint = DEGREES_HINT if not args.deg and tilt(degrees) < min(angle, TILT_WARNED) else ''
+    typed = ' '.join(f'{v:g}' for v in args.pose[3:])
+    unit = 'deg' if args.deg else 'rad'
+    if angle >= math.pi / 2:
+        raise InputError(f'{mech.name}: --pose A B C = {typed} {unit} turn the platform over (its normal '
+                         f'{math.degrees(angle):.4g} deg from the base\'s z axis); allowed: a platform tilted less '
+                         f'than 90 deg{hint}')
+    if hint:
+        import sys
+        print(f'gpr {getattr(args, "command", "mechanism")}: warning: --pose A B C = {typed} rad tilt the platform '
+              f'{math.degrees(angle):.4g} deg from its base{hint}', file=sys.stderr)
+
+
+#: How far a typed parasitic pose value may be from the one the mechanism sets, relative (its nine digits as printed
+#: and typed back, with room for six), before it is refused; and absolutely [m or rad].
+PARASITIC_TOLERANCE = (1e-6, 1e-12)
+
+
+def _parasitic_given(args: argparse.Namespace, mech: Mechanism, pose: np.ndarray) -> None:
+    """Refuse a ``--pose`` whose values the mechanism sets itself (the tripod's X, Y, C, the GPR's outcomes of its
+    virtual joints) given other than 0 (ignored) or the value it sets: ``--pose 5 5 0.1 0.2 0.3 1`` of the tripod was
+    analysed at x = 0.00066 m without a word (the 3-UPU refuses its angles likewise)."""
+    set_by = [i for i in range(6) if i not in set(int(k) for k in mech.variable_indices)]
+    given = [i for i in set_by if pose[i] != 0.0]
+    if not given or mech.kind == 'upu3' or mech.undetermined(pose[None])[0]:
+        return
+    full = mech.complete_pose(pose)
+    rel, tol = PARASITIC_TOLERANCE
+    wrong = [i for i in given if abs(pose[i] - full[i]) > rel * abs(full[i]) + tol]
+    if not wrong:
+        return
+    names = ' '.join('XYZABC'[i] for i in wrong)
+    typed = ', '.join(f'{args.pose[i]:g}' for i in wrong)
+    sets = ', '.join(f'{"XYZABC"[i]} = {full[i]:.9g} {"m" if i < 3 else "rad"}' for i in wrong)
+    free = ' '.join('XYZABC'[int(i)] for i in mech.variable_indices)
+    raise InputError(f'{mech.name}: --pose {names} = {typed} are set by the mechanism from {free} ({sets} at this '
+                     f'pose); allowed: 0 (ignored) or those values')
 
 
 def pose_tilt(args: argparse.Namespace, a: float, b: float, config: GprConfig) -> None:

@@ -7,8 +7,9 @@ same mechanism in rotated axes). Limb ``i`` is the vector ``l_i = h + P_i - B_i`
 length ``l_i = |h - u_i|`` with ``u_i = B_i - P_i`` (eq. 6, positive root).
 
 Jacobian (eqs. 7-10): ``J v_h = l'`` with rows the unit limb vectors ``S_3i = l_i / l_i``. It is singular when
-the three unit vectors are linearly dependent: all limbs parallel (possible only when ``b = p``, at
-``h = (0, 0, z)``) or coplanar (e.g. the platform in the base plane, ``z = 0``). Dexterity is the inverse
+the three unit vectors are linearly dependent: all limbs parallel (only when ``b = p``: then ``u_i = 0`` and every limb
+vector is ``h``, at every pose; Aboulissane & El Bakkali, sec. IV, Fig. 4) or coplanar (e.g. the platform in the base
+plane, ``z = 0``). Dexterity is the inverse
 condition number of ``J`` (dimensionless: the 3-UPU has only linear coordinates); at the centre line
 ``h = (0, 0, z)`` it is ``min(a, c) / max(a, c)`` with ``a = sqrt(3/2) |b - p|`` and ``c = sqrt(3) z``, so
 it falls with height once ``c > a``, as the paper's Fig. 6 shows.
