@@ -105,7 +105,8 @@ def test_platform_programs_are_named_and_refused():
     ({'steps': []}, r'steps must be a non-empty list of steps \(move, pick, place, dwell\)'),
     ({'steps': [{'dwell': 1}]}, r'the steps only dwell; at least one move, pick or place is required'),
     ({'steps': [{'dwell': 1}, {'move': 'a'}]}, r'steps\[0\]: a dwell before any move has nowhere to hold'),
-    ({'steps': [{'move': 'z'}]}, r"steps\[0\]: move 'z': no such station; allowed: a, b"),
+    ({'steps': [{'move': 'z'}]}, r"steps\[0\]: move 'z': no such station; allowed: one of the 2 stations of the "
+                                  r'program and its imports: a, b$'),
     ({'steps': [{'move': 'a', 'pick': 'b'}]},
      r'steps\[0\]: give exactly one of move, pick, place, dwell, got move, pick'),
     # a misspelt kind is named with the keys allowed (it said "give exactly one of ..., got none")
@@ -125,15 +126,17 @@ def test_platform_programs_are_named_and_refused():
     ({'steps': [{'move': 'a', 'arm': 3}]}, r'steps\[0\]: arm = 3 is invalid \(YAML read it as a number: quote the '
                                             r'name to keep it as written\); allowed: a name'),
     ({'steps': [{'move': True}]}, r'steps\[0\]: move True: no such station \(YAML reads true and false as booleans: '
-                                  r'quote the name\); allowed: a, b'),
+                                  r'quote the name\); allowed: one of the 2 stations of the program and its imports: '
+                                  r'a, b$'),
     ({'defaults': {'approach_height': 0.5}}, r'defaults: approach_height = 0.5 m is invalid; allowed: 0 to 0.1 m'),
     ({'defaults': {'speed': 1}}, r'defaults: unknown key\(s\) speed'),
     ({'defaults': [1]}, r'defaults must be a mapping'),
     ({'import': ['absent.csv']}, r"cannot read station file .*absent.csv"),
     ({'import': 7}, r'import = 7; allowed: a station file path \(\.csv, \.yaml\) or a list of at most 64 of them'),
-    # a misspelt wafer station: named, and the stations listed
-    ({'wafers': ['bb']}, r"wafers = \['bb'\] names no station 'bb'; allowed: a list of station names \(the stations "
-                         r'that hold a wafer at the start\): a, b$'),
+    # a misspelt wafer station: named, the closest guessed, and the stations listed (the closest first)
+    ({'wafers': ['bb']}, r"wafers = \['bb'\] names no station 'bb' \(did you mean b\?\); allowed: a list of station "
+                         r'names \(the stations that hold a wafer at the start\): one of the 2 stations of the program '
+                         r'and its imports: b, a$'),
     ({'robot': 5}, r'robot = 5 is invalid; allowed: a path to a robot description'),
     ({'stations': [{'name': 'a', 'position': [1, 2, 3]}, {'name': 'a', 'position': [1, 2, 3]}]},
      r"station name 'a' is used twice"),

@@ -124,7 +124,14 @@ def test_the_collision_table_says_which_time_is_which(tmp_path):
     assert "between samples could not show the pair the margin apart; min distance: the pair's least certified" \
         in lines[k + 5]
     assert 'the whole program; min at: the instant of its smallest measured distance)' in lines[k + 6]
-    assert lines[k + 7].startswith('  largest joint displacement') and lines[-1] == '  NOT safe'
+    # then, for a pair whose least distance lies in another step than its first below the margin, that step
+    extra = [line for line in lines[k + 7:] if ': least at ' in line]
+    for c, line in zip([c for c in d['collisions'] if f"{' / '.join(c['bodies'])}: least at " in res.stdout], extra,
+                       strict=True):
+        least = next(p for p in d['pairs'] if p['bodies'] == c['bodies'] and p['distance'] == c['distance'])
+        assert line.startswith(f"    {' / '.join(c['bodies'])}: least at {least['time']:.3f} s, steps[")
+        assert line.endswith(f"(another step than its first below the margin, {c['label']})")
+    assert lines[k + 7 + len(extra)].startswith('  largest joint displacement') and lines[-1] == '  NOT safe'
     least = next(p for p in d['pairs'] if p['bodies'] == first['bodies'] and p['distance'] == first['distance'])
     # docs/robot.md quotes this case (to the last printed digit: a rounding's flip at the boundary is allowed)
     doc = ' '.join((Path(__file__).resolve().parents[1] / 'docs' / 'robot.md').read_text(encoding='utf-8').split())
@@ -263,8 +270,13 @@ def test_tenfold_arm_accelerations_make_the_wafer_slip(tmp_path, fast_robot):
     assert d['safe'] is False and d['collisions'] == [] and d['max_slip_ratio'] > 1.0
     csv_path = tmp_path / 'samples.csv'
     res = gpr('program', 'export', str(PROGRAM), '--robot', str(fast_robot), '--samples', str(csv_path), '--rate',
-              '1000', cwd=tmp_path)
-    assert res.returncode == 0, res.stderr
+              '1000', cwd=tmp_path)   # refused: the tables drive a controller as a trajectory does
+    assert res.returncode == 1 and not csv_path.exists() and res.stderr.endswith(
+        '; --force writes the tables anyway, for analysis (status 1)\n'), res.stderr
+    res = gpr('program', 'export', str(PROGRAM), '--robot', str(fast_robot), '--samples', str(csv_path), '--rate',
+              '1000', '--force', cwd=tmp_path)   # written for this analysis, status 1, the reason on stderr
+    assert res.returncode == 1 and res.stderr.startswith('gpr program export: warning: the program itself is not '
+                                                         'safe: the wafer slips on the blade'), res.stderr
     with csv_path.open() as f:
         rows = [r for r in csv.DictReader(f)]
     t = np.array([float(r['time']) for r in rows])

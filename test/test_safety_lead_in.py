@@ -87,3 +87,28 @@ def test_the_wafers_are_taken_as_at_the_programs_start_throughout():
     start = at_the_start(shifted)
     assert start.carried == {'arm1': (), 'arm2': ((0.0, math.inf),)}
     assert start.contact == {}
+
+
+def test_a_program_without_a_cell_has_its_move_checked_against_the_robot_itself():
+    """The example robot program has no cell: the move to its start was not checked at all. A robot stopped with
+    arm1's blade where the program starts with a wafer lying (load_port_1, picked at 4 s) sweeps through that wafer on
+    the way; from an instant with both arms clear the move passes."""
+    from gpr_kinematics.cli.program_trajectory import lead_in_keeps_clearance
+
+    plan = plan_program(load_robot(), load_program(config_path('programs/example_robot_program.yaml')))
+    assert plan.program.cell is None
+    traj = program_trajectory(plan, RATE)
+    for t, refused in ((4.0, True), (15.0, False)):
+        current = traj.positions[int(np.searchsorted(traj.time, t))].copy()
+        goal, start = lead_in(plan, traj, current, RATE)
+        assert start > 1.0
+        if not refused:
+            lead_in_keeps_clearance(plan, goal, start)
+            continue
+        with pytest.raises(RobotStateError) as exc:
+            lead_in_keeps_clearance(plan, goal, start)
+        m = re.fullmatch(r"the move from where the robot is to the program's start \(\d\.\d{3} s, added by send\) is "
+                         r'not safe against the robot itself \(no cell\): arm1_blade and wafer@load_port_1:start come '
+                         r'to (-?\d+\.\d{3}) mm at t = \d\.\d{3} s of the move, within the margin of 2 mm; .*',
+                         str(exc.value))
+        assert m and float(m[1]) < 0.0, exc.value

@@ -423,7 +423,7 @@ def test_a_bound_that_runs_out_of_instants_stays_a_bound_and_says_so(monkeypatch
     report = check_program(plan, None)[0]
     assert not report.slip_certified and report.safe
     assert report.max_slip_ratio == pytest.approx(0.77992, abs=1e-5) and report.max_slip_evaluated < 0.752885
-    _print_safety(report)
+    _print_safety(report, plan)
     out = capsys.readouterr().out
     assert ('  the slip bound was not refined to within 0.001 of the evaluated ratios (too many instants): it is '
             'looser, still a bound\n') in out
@@ -494,10 +494,11 @@ def test_over_a_fixed_step_a_jog_was_refused(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(slip_module, 'difference_step', fixed)
     monkeypatch.setattr(bound_module, 'difference_step', fixed)
-    report = check_program(_jog(tmp_path, 1e-6, 2), None)[0]
+    plan = _jog(tmp_path, 1e-6, 2)
+    report = check_program(plan, None)[0]
     assert not report.safe and report.max_slip_ratio == pytest.approx(1.305, abs=0.1)
     assert report.max_slip_evaluated < 0.11
-    _print_safety(report)
+    _print_safety(report, plan)
     assert re.search(r'  UNSAFE: the slip ratio is not bounded below 1 \(its bound 1\.\d{3}; evaluated at most '
                      r'0\.\d{3}, at 0\.\d{3} s, steps\[\d\] \(.+\)\)\n', capsys.readouterr().out)
 

@@ -27,7 +27,7 @@ from ..safety.margin import MARGIN, STREAM_RATE
 from .options import named_file, number, png_plot, program_plan, robot_options, sample_rate, shipped
 from .output import JsonValue, emit_json
 from .program_send import send_parser
-from .program_trajectory import as_a_controller_takes_it
+from .program_trajectory import SLIP_HELPS, as_a_controller_takes_it, the_program_is_safe
 from .progress import add_no_progress, progress_line
 
 if TYPE_CHECKING:
@@ -75,13 +75,13 @@ def _cmd_check(args: argparse.Namespace) -> int:
         emit_json(ProgramCheck(program_summary(plan), report), **written)
     else:
         _print_summary(program_summary(plan))
-        _print_safety(report)
+        _print_safety(report, plan)
         if written:
             print(f'  plot written to {written["plot_file"]}')
     return 0 if report.safe else 1
 
 
-def _print_safety(r: Any) -> None:
+def _print_safety(r: Any, plan: Any) -> None:
     where = f'in cell {r.cell}' if r.cell else 'against itself (no cell)'
     print(f'  clearance {where}: minimum {r.min_clearance * 1e3:.3f} mm (margin {r.margin * 1e3:g} mm, '
           f'{r.between_samples}; {r.evaluations} distance calls); max slip ratio {r.max_slip_ratio:.3f} '
@@ -112,18 +112,21 @@ def _print_safety(r: Any) -> None:
         for c in r.collisions:
             if not c.measured_below:
                 print(f'    {c.not_shown(r.margin)}')
+        _print_least_elsewhere(r, plan)
     _print_budget(r.budget)
     if r.max_slip_evaluated == float('inf'):  # the blade pulls away faster than gravity and the vacuum hold
         print(f'  UNSAFE: the wafer lifts off the blade (ratio inf: the paddle accelerates away from it faster than '
               f'gravity and the vacuum hold it down) at {r.max_slip_at:.3f} s, {r.slip_label}')
     elif r.max_slip_evaluated >= 1.0:
         print(f'  UNSAFE: the wafer slips on the blade (ratio {r.max_slip_evaluated:.3f} >= 1) at {r.max_slip_at:.3f} '
-              f's, {r.slip_label}')
+              f's, {r.slip_label}; {SLIP_HELPS}')
     elif r.max_slip_ratio >= 1.0:
         print(f'  UNSAFE: the slip ratio is not bounded below 1 (its bound {r.max_slip_ratio:.3f}; evaluated at most '
               f'{r.max_slip_evaluated:.3f}, at {r.max_slip_at:.3f} s, {r.slip_label})')
     shown = [c for c in r.collisions if not c.measured_below]
-    print(f'  {"safe" if r.safe else "NOT safe"}' + (f' ({len(shown)} pair(s) could not be shown the margin apart, '
+    verdict = ('safe' if r.cell else 'safe against itself only: no cell was checked (a cell: key in the program or '
+               '--cell FILE checks one)') if r.safe else 'NOT safe'
+    print(f'  {verdict}' + (f' ({len(shown)} pair(s) could not be shown the margin apart, '
                                                       'none measured closer)' if shown == list(r.collisions) and
                                                       shown and r.max_slip_ratio < 1.0 and not r.budget.beyond
                                                       else ''))
@@ -141,6 +144,17 @@ def _print_budget(b: Any) -> None:
             print(f'    {f.label:<48} {f.first:>9.3f} {f.samples:>8} {f.displacement * 1e6:>10.3f} {f.at:>9.3f}')
 
 
+def _print_least_elsewhere(r: Any, plan: Any) -> None:
+    """For each pair below the margin whose least distance lies in another step than its first instant below it
+    (the table's row names the first: a wafer into a chamber's jamb at a place and again at a later pick), that step."""
+    from ..safety.check import label_at
+    for c in r.collisions:
+        least = _least_at(r, c)
+        if least == least and label_at(plan, least) != c.label:
+            print(f'    {" / ".join(c.bodies)}: least at {least:.3f} s, {label_at(plan, least)} (another step than '
+                  f'its first below the margin, {c.label})')
+
+
 def _least_at(r: Any, c: Any) -> float:
     """When the collision ``c``'s pair is at its least distance: the time of its entry in the report's pairs (the
     same bodies and distance; the collision itself carries the first instant below the margin)."""
@@ -156,6 +170,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.waypoints is None and args.samples is None and args.trajectory is None:
         raise InputError('nothing to export: give --waypoints FILE and/or --samples FILE (.csv or .json), or '
                          '--trajectory FILE.yaml')
+    if args.force and args.trajectory is not None:
+        raise InputError('--force writes the joint tables of a program that is not safe, and a trajectory is never '
+                         'written for one; allowed: --force with --waypoints and/or --samples only')
     for path in (args.waypoints, args.samples):
         if path is not None:  # refused before the program is planned
             check_table_path(path)
@@ -167,6 +184,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
         from ..robot.trajectory import within_a_day
         within_a_day(plan.timing.total + args.lead_in, f'{plan.program.source}: the trajectory'
                      + (f' with its --lead-in of {args.lead_in:g} s' if args.lead_in else ''))
+    unsafe = _tables_of_a_safe_program(args, plan)
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
     written: dict[str, JsonValue] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
     if args.waypoints is not None:
@@ -184,7 +202,29 @@ def _cmd_export(args: argparse.Namespace) -> int:
         for key in ('waypoints', 'samples', 'trajectory'):
             if f'{key}_file' in written:
                 print(f'  {key} written to {written[f"{key}_file"]}')
+    if unsafe:
+        import sys
+        print(f'gpr program export: warning: {unsafe}; the tables were written as --force asks, for analysis, not '
+              'for a controller', file=sys.stderr)
+        return 1
     return 0
+
+
+def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any) -> str:
+    """Refuse (:class:`~gpr_kinematics.errors.UnsafeError`, status 1) the joint tables of a program ``gpr program
+    check`` finds not safe, as the trajectory is (they drive a controller as it does: a colliding program's and a
+    slipping one's were written with exit 0); with ``--force`` the reason, the tables then written (status 1). With
+    ``--trajectory`` the check is the trajectory's (:func:`.program_trajectory.as_a_controller_takes_it`)."""
+    from ..errors import UnsafeError
+    if args.trajectory is not None:
+        return ''
+    try:
+        the_program_is_safe(plan, args.rate, 'export')
+    except UnsafeError as exc:
+        if not args.force:
+            raise UnsafeError(f'{exc}; --force writes the tables anyway, for analysis (status 1)') from None
+        return str(exc)
+    return ''
 
 
 # -- the program as a joint trajectory: export --trajectory, send ------------------------------------------------
@@ -243,6 +283,8 @@ def register(sub: Any) -> None:
                    'much after the start [s] (a controller moves there from where the robot is; 0 to 3600); '
                    'default 0')
     p.add_argument('--rate', type=number, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
+    p.add_argument('--force', action='store_true', help='write the tables (not a trajectory) of a program check '
+                   'finds not safe, for analysis (status 1)')
     robot_options(p, program=True)
     p.set_defaults(handler=_cmd_export)
     send_parser(psub)

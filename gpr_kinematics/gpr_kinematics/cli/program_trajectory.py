@@ -1,6 +1,6 @@
 """The trajectory ``gpr program export --trajectory`` writes and ``gpr program send`` sends, checked before either:
 as ``robot_simulator_node`` checks a goal, for the clearance of its spline in the program's cell, and against the
-program it stands for (a warning where its spline leaves it). A program ``gpr program check`` finds not safe is
+program it stands for (refused where its spline leaves it). A program ``gpr program check`` finds not safe is
 refused as it is (:class:`~gpr_kinematics.errors.UnsafeError`, status 1, as the check's); a trajectory refused at its
 ``--rate`` where a higher one helps is bad input (:class:`~gpr_kinematics.errors.InputError`, status 2)."""
 from __future__ import annotations
@@ -20,6 +20,10 @@ if TYPE_CHECKING:
     from ..robot.trajectory import JointTrajectory
     from ..safety.clearance import ClearanceReport, PairClearance
 
+#: What lowers a carried wafer's slip ratio (``gpr program check``'s and the refusals' hint).
+SLIP_HELPS = ("the ratio is lowered by a longer 'time' on that step, lower acceleration limits of the arm's joints "
+              'or blades of more friction')
+
 #: The rate [Hz] at which a trajectory is checked as robot_simulator_node checks a goal (its default ``rate``).
 CONTROLLER_RATE = 100.0
 
@@ -28,8 +32,9 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
     """Refuse a trajectory at ``--rate`` whose spline between points is not the checked program: one
     ``robot_simulator_node`` would refuse (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point,
     sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: a warning
-    then says the node needs a lower ``rate``), and, for a program in a cell, one whose spline comes within the
-    clearance margin (:func:`~gpr_kinematics.safety.check.trajectory_clearance`). The cubic between points a few per
+    then says the node needs a lower ``rate``), one whose spline comes within the clearance margin in the program's
+    cell or against the robot itself (:func:`~gpr_kinematics.safety.check.trajectory_clearance`), makes a wafer slip
+    or leaves the program by more than :data:`DEVIATION_ALLOWED`. The cubic between points a few per
     second apart overshoots the program's velocities (the example cell program's rod_1 by 1.05 % at 5 Hz, beyond the
     1 % a controller allows), and at 0.3 Hz put arm2's blade 8.7 mm into a chamber's wall: such files were written,
     or sent."""
@@ -46,15 +51,15 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
     except GoalError as exc:
         raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
                          'more points)') from None
-    if the_program_is_safe(plan, rate, command) and plan.program.cell is not None:
-        _keeps_the_cells_clearance(plan, plan.program.cell, traj, rate)
+    if the_program_is_safe(plan, rate, command):
+        _keeps_the_clearance(plan, plan.program.cell, traj, rate)
     _holds_the_wafers(plan, traj, rate)
+    _follows_the_program(plan, motion, joints.names, rate)
     if traj.duration > longest:
         print(f'gpr program {command}: warning: the trajectory lasts {traj.duration:.6g} s: robot_simulator_node '
               f'samples a goal at its rate into at most {MAX_SAMPLES} samples and refuses it at its default rate of '
               f'{CONTROLLER_RATE:g} Hz (at most {longest:.6g} s); give the node a lower rate '
               f'(at most {(MAX_SAMPLES - 1) / traj.duration:.6g} Hz)', file=sys.stderr)
-    _warn_deviation(plan, motion, joints.names, rate, command)   # after any refusal: one line then
 
 
 def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
@@ -75,13 +80,15 @@ def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
     if report.collisions:
         from ..safety.check import program_clearance
         p = _least(program_clearance(plan, loaded, MARGIN, decide=False, only=_names(clear)))
-        why = f' {where}: {_pair(p)}, within the margin of {MARGIN * 1000:g} mm'
+        first = min(report.collisions, key=lambda c: c.time)
+        why = (f' {where}: {_pair(p, plan)}, within the margin of {MARGIN * 1000:g} mm ({len(report.collisions)} '
+               f'pair(s) below it, the first {" and ".join(first.bodies)} at t = {first.time:.3f} s, {first.label})')
     elif report.max_slip_ratio >= 1.0:
         ratio = report.max_slip_evaluated
         how = ('lifts off the blade (ratio inf)' if ratio == math.inf
                else f'slips on the blade (ratio {ratio:.3f} >= 1)' if ratio >= 1.0
                else f'may slip on the blade (its ratio bounded by {report.max_slip_ratio:.3f}, not below 1)')
-        why = f': the wafer {how} at {report.max_slip_at:.3f} s, {report.slip_label}'
+        why = f': the wafer {how} at {report.max_slip_at:.3f} s, {report.slip_label}; {SLIP_HELPS}'
     else:
         b = report.budget
         assert b is not None
@@ -92,19 +99,22 @@ def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
                       'allowed: a program gpr program check finds safe (it names every pair and move)')
 
 
-def _keeps_the_cells_clearance(plan: ProgramPlan, cell: Path, traj: JointTrajectory, rate: float) -> None:
+def _keeps_the_clearance(plan: ProgramPlan, cell: Path | None, traj: JointTrajectory, rate: float) -> None:
     """Refuse ``traj`` (the program at ``--rate``, which :func:`the_program_is_safe` passed) whose spline comes within
-    the clearance margin in the program's ``cell`` file (:func:`~gpr_kinematics.safety.check.trajectory_clearance`):
-    a higher rate helps (python-fcl needed: ``program export`` alone needs only numpy, scipy and PyYAML)."""
+    the clearance margin in the program's ``cell`` file, or against itself without one (its arms, the column, the
+    platform: :func:`~gpr_kinematics.safety.check.trajectory_clearance`): a higher rate helps (python-fcl needed:
+    ``program export`` alone needs only numpy, scipy and PyYAML). Without a cell only a warning was given (the
+    example robot program at 0.1 Hz left the program by 3.5 rad)."""
     from ..safety.cell import load_cell
     from ..safety.check import trajectory_clearance
-    loaded = load_cell(cell)
+    loaded = None if cell is None else load_cell(cell)
     report = trajectory_clearance(plan, loaded, traj, MARGIN)
     if not report.below_margin:
         return
     p = _least(trajectory_clearance(plan, loaded, traj, MARGIN, decide=False, only=_names(report)))
+    where = f'in cell {cell}' if cell is not None else 'against the robot itself (no cell)'
     raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
-                     f'program: {_pair(p)}, within the margin of {MARGIN * 1000:g} mm in cell {cell} (the program '
+                     f'program: {_pair(p, plan)}, within the margin of {MARGIN * 1000:g} mm {where} (the program '
                      'itself keeps it); allowed: a higher --rate (points closer together follow the program)')
 
 
@@ -125,14 +135,15 @@ def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: flo
     """Refuse (:class:`~gpr_kinematics.errors.RobotStateError`: the robot's state, status 1) a ``goal`` whose move
     from where the robot is to the program's start (its first ``start`` s, :func:`~gpr_kinematics.robot.trajectory.
     lead_in`) comes within the clearance margin in the program's cell
-    (:func:`~gpr_kinematics.safety.check.lead_in_clearance`); nothing without a cell or a move, a warning without
-    python-fcl."""
+    (:func:`~gpr_kinematics.safety.check.lead_in_clearance`), or against the robot itself without a cell (its arms,
+    the column, the platform); nothing without a move, a warning without python-fcl."""
     import numpy as np
 
     from ..errors import RobotStateError
     from ..robot.trajectory import JointTrajectory
     cell = plan.program.cell
-    if cell is None or start <= 0.0 or not _has_fcl(f'in cell {cell}', 'send', 'the move to the program\'s start'):
+    where = f'in cell {cell}' if cell is not None else 'against the robot itself (no cell)'
+    if start <= 0.0 or not _has_fcl(where, 'send', 'the move to the program\'s start'):
         return
     from ..safety.cell import load_cell
     from ..safety.check import lead_in_clearance
@@ -140,13 +151,13 @@ def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: flo
     lead = JointTrajectory(goal.joint_names, goal.time[:n], goal.positions[:n],
                            None if goal.velocities is None else goal.velocities[:n],
                            None if goal.accelerations is None else goal.accelerations[:n])
-    loaded = load_cell(cell)
+    loaded = None if cell is None else load_cell(cell)
     report = lead_in_clearance(plan, loaded, lead, MARGIN)
     if report.below_margin:
         names = _names(report)
         p = _least(lead_in_clearance(plan, loaded, lead, MARGIN, decide=False, only=names))
         raise RobotStateError(f'the move from where the robot is to the program\'s start ({start:.3f} s, added by '
-                              f'send) is not safe in cell {cell}: {_pair(p)} of the move, within the margin of '
+                              f'send) is not safe {where}: {_pair(p)} of the move, within the margin of '
                               f'{MARGIN * 1000:g} mm; allowed: a robot whose joint-space line to the program\'s first '
                               'point keeps the margin (move it clear first, or start the program where it is)')
 
@@ -176,20 +187,26 @@ def _least(report: ClearanceReport) -> PairClearance:
     return min(report.pairs, key=lambda p: p.distance)
 
 
-def _pair(p: PairClearance) -> str:
-    """A pair in words: its bodies, their least distance and its instant."""
-    return f'{p.bodies[0]} and {p.bodies[1]} come to {p.distance * 1000:.3f} mm at t = {p.time:.3f} s'
+def _pair(p: PairClearance, plan: ProgramPlan | None = None) -> str:
+    """A pair in words: its bodies, their least distance and its instant (with ``plan``, the program's instant: the
+    step there)."""
+    step = ''
+    if plan is not None:
+        from ..safety.check import label_at
+        step = f', {label_at(plan, p.time)}'
+    return f'{p.bodies[0]} and {p.bodies[1]} come to {p.distance * 1000:.3f} mm at t = {p.time:.3f} s{step}'
 
 
-#: How far [m or rad] the spline between a trajectory's points may leave the program before a warning says so
-#: (the simulator's default goal tolerance).
-DEVIATION_WARNED = 1e-3
+#: How far [m or rad] the spline between a trajectory's points may leave the program (the simulator's default goal
+#: tolerance).
+DEVIATION_ALLOWED = 1e-3
 
 
-def _warn_deviation(plan: ProgramPlan, motion: Motion, names: Sequence[str], rate: float, command: str) -> None:
-    """Warn on stderr where the spline through the trajectory's points (``motion``, sampled as a controller samples
-    it) leaves the planned program by more than :data:`DEVIATION_WARNED` at those instants (the example robot program
-    at 0.1 Hz: by 3.5 rad, visiting none of its stations, and written without a word)."""
+def _follows_the_program(plan: ProgramPlan, motion: Motion, names: Sequence[str], rate: float) -> None:
+    """Refuse a trajectory whose spline through its points (``motion``, sampled as a controller samples it) leaves
+    the planned program by more than :data:`DEVIATION_ALLOWED` at those instants: it is not the program checked (the
+    example robot program at 0.1 Hz: by 3.5 rad, visiting none of its stations, was written with a warning); a
+    higher rate helps."""
     import numpy as np
 
     from ..robot.plan import plan_samples
@@ -197,8 +214,9 @@ def _warn_deviation(plan: ProgramPlan, motion: Motion, names: Sequence[str], rat
     planned = plan_samples(plan, sample_at(plan.timing, motion.time)).positions
     gap = np.abs(motion.positions - planned)
     i, j = (int(k) for k in np.unravel_index(int(np.argmax(gap)), gap.shape))
-    if gap[i, j] > DEVIATION_WARNED:
+    if gap[i, j] > DEVIATION_ALLOWED:
         unit = 'm' if j < 3 else 'rad'
-        print(f'gpr program {command}: warning: at --rate {rate:g} Hz the spline between the trajectory\'s points '
-              f'leaves the program by up to {gap[i, j]:.3g} {unit} ({names[j]} at t = {motion.time[i]:.3f} s); a '
-              'higher --rate follows it more closely', file=sys.stderr)
+        raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the program by up '
+                         f'to {gap[i, j]:.3g} {unit} ({names[j]} at t = {motion.time[i]:.3f} s), not the program '
+                         f'checked; allowed: at most {DEVIATION_ALLOWED:g} m or rad (a robot simulator\'s goal '
+                         'tolerance), at a higher --rate (points closer together follow the program)')

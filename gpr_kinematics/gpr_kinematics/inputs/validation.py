@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence, Sized
+from collections.abc import Iterable, Sequence, Sized
 from typing import Any
 
 import numpy as np
@@ -368,3 +368,27 @@ def difference_step(name: str, step: Any) -> float:
     if not 0.0 < plain_number(step) <= 0.01:
         raise InputError(f'{name}: step = {brief(step)} is invalid; allowed: a number > 0 and at most 0.01 (SI units)')
     return float(step)
+
+
+def closest_names(names: Iterable[str], given: Any) -> list[str]:
+    """Up to three of ``names`` close to a misspelt ``given`` (difflib's ratio of at least 0.6)."""
+    import difflib
+    return difflib.get_close_matches(given, list(names), n=3, cutoff=0.6) if isinstance(given, str) else []
+
+
+def did_you_mean(names: Iterable[str], given: Any) -> str:
+    """`` (did you mean pm4?)`` for a misspelt ``given`` close to one of ``names``, else ''."""
+    close = closest_names(names, given)
+    return f' (did you mean {" or ".join(close)}?)' if close else ''
+
+
+def listed_names(names: Iterable[str], what: str, given: Any = None) -> str:
+    """``names`` for an 'allowed:': their count (``what`` they are), the ones closest to a misspelt ``given`` first,
+    then the first eight (a program may have 100,000 stations; a list cut after eight hid the imported ones a typo
+    meant)."""
+    listed = list(names)
+    close = closest_names(listed, given)
+    shown = close + [n for n in listed[:8] if n not in close]
+    rest = len(listed) - len(shown)
+    return f'one of the {len(listed)} {what}: {", ".join(shown)}' + (f', ... ({rest} more)' if rest > 0 else '')
+

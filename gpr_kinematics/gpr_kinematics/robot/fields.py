@@ -148,3 +148,21 @@ def check_names(rods: Sequence[str], joints: Sequence[str], arms: Sequence[str],
                               f'on joint_states and in trajectories; allowed: {ROD_JOINT_NAMES[k]!r} for rod {k + 1}, '
                               f'or a name other than {", ".join(ROD_JOINT_NAMES)}')
 
+
+#: A station this close to the world's origin [m] that no arm reaches: metres given as millimetres (a station file
+#: in mm with metres in it put pm4 at (0.45, 0.5, 0.65) mm; blamed on the heights alone).
+NEAR_THE_ORIGIN = 0.01
+
+
+def unit_hint(from_base: float, from_origin: float) -> str:
+    """The hint to a station no arm reaches by its distances [m] from ``gpr_base`` and the world's origin: beyond
+    :data:`WORLD_BOUND` but in reach as millimetres, millimetres given as metres; within :data:`NEAR_THE_ORIGIN` of
+    the origin, metres given as millimetres; else ''."""
+    if from_base > WORLD_BOUND and from_base / 1000.0 < 10.0:   # a position in mm typed as m: 1.5 km from the base
+        return (f'; the station lies {from_base:.4g} m from gpr_base, {from_base / 1000.0:.4g} m as millimetres: '
+                'millimetres given as metres?')
+    if from_origin < NEAR_THE_ORIGIN:
+        return (f'; the station lies {from_origin * 1000.0:.4g} mm from the world\'s origin: metres given as '
+                'millimetres?')
+    return ''
+

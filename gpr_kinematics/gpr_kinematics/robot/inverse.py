@@ -43,7 +43,7 @@ from ..errors import ConvergenceError, InputError, LimitError, apart, brief
 from ..inputs.validation import TURN, TURN_SLACK, switch
 from .arm_chain import LIMIT_SLACK
 from .description import BRANCHES, Arm, ArmJoint, RobotDescription
-from .fields import WORLD_BOUND
+from .fields import unit_hint
 from .forward import RobotForward, RobotForwardRecord, base_pose, forward_on_platform, platform_to_blade
 from .one_station import (
     HEADING_TOLERANCE,
@@ -351,9 +351,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         angle_error=_angle_to(stations, fk.wafer.rotation), feasible=~bad)
     if check and bad.any():
         i = int(np.argmax(bad))
-        far = float(np.linalg.norm(p_b[i]))  # a position in mm typed as m: a station 1.5 km from the base
-        hint = (f'; the station lies {far:.4g} m from gpr_base, {far / 1000.0:.4g} m as millimetres: millimetres given '
-                'as metres?' if far > WORLD_BOUND and far / 1000.0 < 10.0 else '')   # beyond the world, in reach
+        hint = unit_hint(float(np.linalg.norm(p_b[i])), float(np.linalg.norm(stations.position[i])))
         raise LimitError(f'{stations.label(i)}: {_fault_message(robot, a, result, sol, targets, i)}{hint}'
                          f'{_more(bad)}')
     return result

@@ -51,7 +51,7 @@ import numpy as np
 from ..errors import ConfigError, FileError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, read_yaml
 from ..inputs.units import to_si
-from ..inputs.validation import MAX_COORDINATE, text_hint
+from ..inputs.validation import MAX_COORDINATE, did_you_mean, listed_names, text_hint
 from .description import BRANCHES, Arm, RobotDescription, load_robot
 from .platform_program import FORMAT as PLATFORM_FORMAT
 from .platform_program import PlatformProgram, parse_platform_program
@@ -196,9 +196,8 @@ def _path(data: Mapping[str, Any], key: str, base: Path, source: str) -> Path | 
     return None if value is None else (base / value if not Path(value).is_absolute() else Path(value))
 
 
-def _known(names: Any) -> str:
-    """The first eight station names, for an 'allowed:' (a program may have 100,000)."""
-    return ', '.join(list(names)[:8]) + (', ...' if len(names) > 8 else '')
+#: The station names a program's refusals list (:func:`~..inputs.validation.listed_names`).
+_STATIONS = 'stations of the program and its imports'
 
 
 def _wafers(raw: Any, table: StationTable, source: str) -> tuple[str, ...]:
@@ -206,9 +205,11 @@ def _wafers(raw: Any, table: StationTable, source: str) -> tuple[str, ...]:
     if not isinstance(raw, list) or any(not isinstance(n, (str, int)) or str(n) not in names for n in raw):
         unknown = [n for n in raw if not isinstance(n, (str, int)) or str(n) not in names] if isinstance(raw, list) \
             else []
-        what = f'names no station {brief(unknown[0])}' if unknown else 'is invalid'
+        what = (f'names no station {brief(unknown[0])}{did_you_mean(names, str(unknown[0]))}' if unknown
+                else 'is invalid')
         raise ConfigError(f'{source}: wafers = {brief(raw)} {what}; allowed: a list of station names (the stations '
-                          f'that hold a wafer at the start): {_known(names)}')
+                          f'that hold a wafer at the start): '
+                          f'{listed_names(names, _STATIONS, str(unknown[0]) if unknown else None)}')
     if len({str(n) for n in raw}) != len(raw):
         raise ConfigError(f'{source}: wafers = {brief(raw)} names a station twice; allowed: one wafer per station')
     return tuple(str(n) for n in raw)
@@ -287,8 +288,9 @@ def _steps(raw: Any, table: StationTable, source: str) -> tuple[Step, ...]:
         check_keys(st, (kind, 'arm', 'branch', 'dwell', 'time'), where)
         station = st[kind]
         if not isinstance(station, str) or station not in names:   # move: 007 read as 7 too: quote it
-            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{text_hint(station)}; allowed: '
-                              f'{_known(names)}')
+            raise ConfigError(f'{where}: {kind} {brief(station)}: no such station{text_hint(station)}'
+                              f'{did_you_mean(names, station)}; allowed: '
+                              f'{listed_names(names, _STATIONS, station)}')
         time = None if st.get('time') is None else _seconds(st['time'], where, 'time', positive=True)
         if time is not None and all(s.kind == 'dwell' for s in out):  # it was dropped without a word
             raise ConfigError(f'{where}: time = {time:g} s on the first move: the program starts at its first '

@@ -1,0 +1,105 @@
+"""What an OLP engineer writing a program of their own met (a trial of 2026-12-07): a program without a cell called
+plain "safe", a misspelt station not matched to the one meant (and the list of names cut before the imported ones),
+metres in a station file in millimetres blamed on the heights, a pair below the margin in two steps named by its
+first alone."""
+from __future__ import annotations
+
+import re
+
+import pytest
+from gpr_kinematics.cli.main import main
+from gpr_kinematics.inputs.resources import config_path
+
+PROGRAM = config_path('programs/example_robot_program.yaml')
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _program(tmp_path, old: str, new: str, name: str = 'program.yaml'):
+    """The example robot program with ``old`` replaced by ``new`` (once), its robot named in full."""
+    text = PROGRAM.read_text()
+    assert text.count(old) >= 1, old
+    text = text.replace(old, new, 1).replace('../robots/', f'{config_path("robots")}/')
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.slow
+def test_a_program_without_a_cell_is_safe_against_itself_only(capsys):
+    status, out, _ = run(capsys, 'program', 'check', str(PROGRAM), '--no-progress')
+    assert status == 0 and 'clearance against itself (no cell)' in out
+    assert out.splitlines()[-1] == ('  safe against itself only: no cell was checked (a cell: key in the program or '
+                                    '--cell FILE checks one)')
+    status, out, _ = run(capsys, 'program', 'check', str(PROGRAM), '--no-progress', '--cell', 'example_cell.yaml')
+    assert out.splitlines()[-1] in ('  safe', '  NOT safe')   # with a cell: the plain verdict
+
+
+def test_a_misspelt_station_is_matched_to_the_one_meant_and_the_names_counted(capsys, tmp_path):
+    text = PROGRAM.read_text()
+    station = re.search(r'\{place: (\w+)', text)[1]
+    program = _program(tmp_path, f'{{place: {station}', f'{{place: {station[:-1]}_{station[-1]}')
+    status, out, err = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert (status, out) == (2, '')
+    m = re.fullmatch(rf"gpr program check: error: .*: steps\[\d+\]: place '{station[:-1]}_{station[-1]}': no such "
+                     rf'station \(did you mean {station}(?: or \w+)*\?\); allowed: one of the (\d+) stations of the '
+                     rf'program and its imports: {station}, (.*)\n', err)
+    assert m, err
+    listed = m[2].split(', ')
+    assert station not in listed and len(listed) <= 9   # the closest first, then the first eight
+    # the wafers' list too; a name like none: no guess
+    program = _program(tmp_path, '\nsteps:', '\nwafers: [zzzz_qqqq]\nsteps:', 'wafers.yaml')
+    status, _, err = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert status == 2 and "names no station 'zzzz_qqqq'; allowed: a list of station names" in err, err
+    assert 'did you mean' not in err
+
+
+def test_metres_in_a_station_file_in_millimetres_are_hinted(capsys, tmp_path):
+    """A station at (0.45, 0.5, 0.65) in a file whose lengths are millimetres lies 0.94 mm from the world's origin:
+    refused as too low (the rods' stroke), now with the hint of metres given as millimetres."""
+    (tmp_path / 'st.yaml').write_text('units: {length: mm, angle: deg}\nstations:\n'
+                                      '  - {name: near, position: [0.45, 0.5, 0.65], tilt: 0, azimuth: 0, '
+                                      'heading: 90}\n')
+    text = PROGRAM.read_text()
+    first = re.search(r'- \{(pick|place|move): (\w+)', text)
+    program = _program(tmp_path, first[0], '- {move: near}\n  ' + first[0])
+    body = program.read_text()
+    program.write_text(re.sub(r'^stations:', f'import: [{tmp_path / "st.yaml"}]\nstations:', body, count=1,
+                              flags=re.M) if 'import:' not in body else body.replace('import: [',
+                                                                                     f'import: [{tmp_path}/st.yaml, '))
+    status, out, err = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert (status, out) == (2, ''), err
+    far = (0.45 ** 2 + 0.5 ** 2 + 0.65 ** 2) ** 0.5   # mm, independently
+    assert f"; the station lies {far:.4g} mm from the world's origin: metres given as millimetres?" in err, err
+
+
+@pytest.mark.slow
+def test_a_pair_below_the_margin_at_its_least_in_another_step_names_that_step(capsys, tmp_path):
+    """pm1 25 mm to the side: arm2's wafer glides along pm1's front from the place into the pick; the table's row
+    names the first step below the margin; where the least distance lies in another (the instant of the glide's
+    least is any of it), a line names that step."""
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.plan import plan_program
+    from gpr_kinematics.robot.program import load_program
+    from gpr_kinematics.safety.check import label_at
+    text = config_path('programs/example_cell_program.yaml').read_text()
+    old = 'position: [1450, 500, 720], tilt: 1.5, azimuth: 120, heading: 0, entry: 330'
+    text = text.replace(old, old.replace('500', '525')).replace('../robots/', f'{config_path("robots")}/')
+    program = tmp_path / 'moved.yaml'
+    program.write_text(text.replace('../cells/', f'{config_path("cells")}/'))
+    status, out, _ = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert status == 1
+    row = re.search(r'^ +(\d+)  pm1 +(\d+\.\d{3})  arm2_wafer / pm1/front_left +-5\.049 +(\d+\.\d{3})$', out, re.M)
+    assert row, out
+    plan = plan_program(load_robot(), load_program(program))
+    first, least = label_at(plan, float(row[2])), label_at(plan, float(row[3]))
+    line = (f'    arm2_wafer / pm1/front_left: least at {row[3]} s, {least} (another step than its first below the '
+            f'margin, {first})')
+    assert (line in out.splitlines()) == (least != first), out
