@@ -241,7 +241,8 @@ def test_arm_refusals(arm_case, capsys, tmp_path):
     status, _, err = run(capsys, 'calibrate', '--robot', robot.source, str(wdeg), '--output', 'x.yaml')
     assert status == 2 and err.count('\n') == 1, err
     assert re.fullmatch(r"gpr calibrate: error: .*wdeg\.csv line 3: the measured point is [\d.]+ m from the nominal "
-                        r"model's \(allowed: 0\.01 m\): not a measurement of this machine in gpr_base in SI units "
+                        r"model's \(allowed: 0\.01 m\): not a measurement of this machine in gpr_base in the units "
+                        r"it declares \(m and rad where it names none\) "
                         r"\(another frame than gpr_base.*: correct the nominal model first\); or its '# units:' line's "
                         r"angle unit \(deg\) not the joints'\n", err), err
     # an empty file: the header's joint columns named too, as for a header without them (only q1,q2,q3,x,y,z were)

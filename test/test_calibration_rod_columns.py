@@ -88,7 +88,8 @@ def test_one_row_far_off_in_a_registered_frame_is_named_as_a_wrong_row(capsys, t
     assert status == 2 and err.count('\n') == 1 and out == ''
     assert re.fullmatch(rf"gpr calibrate: error: \S+tracker\.csv line {line}: the measured pose is 0\.0\d+ m and "
                         r"\S+ rad from the nominal model's \(allowed: 0\.01 m, 0\.05 rad\): not a measurement of "
-                        r"this machine in tracker in SI units \(the only row so far off: a wrong or mismeasured row\? "
+                        r"this machine in tracker in the units it declares \(m and rad where it names none\) \(the "
+                        r"only row so far off: a wrong or mismeasured row\? "
                         r"remove it or measure it again; else a machine that far from its nominal model \(an arm's "
                         r"zero offset of a degree moves its wafer some centimetres\): correct the nominal model "
                         r"first\)\n", err), err

@@ -6,6 +6,7 @@ import json
 import math
 import re
 
+import numpy as np
 import pytest
 from gpr_kinematics.core import inverse
 from gpr_kinematics.core.compensation import compensate
@@ -274,7 +275,7 @@ def test_a_step_that_divides_a_turn_is_taken(capsys, argv, azimuths):
 
 
 # -- 8: gpr program send --json prints its object when it fails ----------------------------------------------------
-@pytest.mark.parametrize('failure', ['no joint states', 'no server', 'no result'])
+@pytest.mark.parametrize('failure', ['no joint states', 'no server', 'no result', 'lead-in unsafe'])
 def test_send_json_prints_its_object_with_the_failure(capsys, monkeypatch, failure):
     """`gpr program send ... --action nope --timeout 1 --json` exited 1 with nothing on stdout, where `program check
     --json` and `verify --json` print their object on status 1: the SendResult, its status and the failure's line. The
@@ -285,6 +286,12 @@ def test_send_json_prints_its_object_with_the_failure(capsys, monkeypatch, failu
     from robot_support import ROBOT
 
     def positions(client, names, topic, timeout):
+        if failure == 'lead-in unsafe':   # arm1's blade where the program starts with a wafer lying (no cell)
+            from gpr_kinematics.robot.plan import plan_program
+            from gpr_kinematics.robot.program import load_program
+            from gpr_kinematics.robot.trajectory import program_trajectory
+            traj = program_trajectory(plan_program(ROBOT, load_program(PROGRAM)), 100.0)
+            return traj.positions[int(np.searchsorted(traj.time, 4.0))]
         return None if failure == 'no joint states' else ControllerJoints.of(ROBOT).rest
 
     def follow(client, goal, action, timeout, progress, found):
@@ -307,6 +314,11 @@ def test_send_json_prints_its_object_with_the_failure(capsys, monkeypatch, failu
     assert result['points'] > 0 and result['duration'] > 0
     if failure == 'no joint states':
         assert result['lead_in'] is None and line.startswith('no joint states with the joints rod_1, rod_2, rod_3, ')
+    elif failure == 'lead-in unsafe':   # the lead-in is known: its --json said null while the line named it
+        m = re.match(r"the move from where the robot is to the program's start \((\d+\.\d{3}) s, added by send\) is "
+                     r'not safe against the robot itself \(no cell\)', line)
+        assert m and result['lead_in'] == pytest.approx(float(m[1]), abs=5e-4), line
+        assert result['duration'] - result['lead_in'] == pytest.approx(28.528, abs=0.02)   # the goal with its lead-in
     else:
         assert result['lead_in'] >= 0
         assert line == ('no FollowJointTrajectory server on /nope within 1 s (change the name with --action, the wait '

@@ -110,3 +110,21 @@ def test_no_millimetres_hint_below_the_stroke(capsys, tmp_path):
     assert main(['calibrate', str(path), '--output', str(tmp_path / 'c.yaml')]) == 2
     err = capsys.readouterr().err
     assert 'is outside the stroke [0, 0.508] m' in err and 'millimetres?' not in err, err
+
+
+@pytest.mark.parametrize('argv, warning', [
+    (['fk', '0.5', '0.503', '0.498'], 'gpr fk: warning: q = 0.5 0.503 0.498 mm (under --mm): metres typed under --mm? '
+                                      '(as metres 0.5 0.503 0.498 m)\n'),
+    (['ik', '--height', '0.5', '--tilt', '0', '--azimuth', '0'],
+     'gpr ik: warning: --height = 0.5 mm (under --mm): metres typed under --mm? (as metres 0.5 m)\n'),
+    (['fk', '0', '0', '0'], ''), (['fk', '250', '250.5', '251'], ''), (['ik', '--height', '300', '--tilt', '0',
+                                                                         '--azimuth', '0'], '')])
+def test_metres_typed_under_mm_are_warned_and_taken_as_typed(capsys, argv, warning):
+    """``gpr fk 0.5 0.503 0.498 --mm`` ran on rods of half a millimetre without a word (``gpr robot ik`` hints the
+    same slip): taken as typed (the input is valid), with the question on stderr; the bottom of the stroke (0 0 0)
+    and lengths of a millimetre or more without."""
+    assert main([*argv, '--mm', '--json']) == 0
+    out, err = capsys.readouterr()
+    assert err == warning and json.loads(out)
+    if argv[0] == 'fk':
+        assert json.loads(out)['q'] == [float(v + 'e-3') for v in argv[1:]]

@@ -103,3 +103,39 @@ def test_a_pair_below_the_margin_at_its_least_in_another_step_names_that_step(ca
     line = (f'    arm2_wafer / pm1/front_left: least at {row[3]} s, {least} (another step than its first below the '
             f'margin, {first})')
     assert (line in out.splitlines()) == (least != first), out
+
+
+
+def test_the_budgets_tool_points_print_no_rounding_as_an_offset(capsys):
+    """``tool (1.22465e-17, 0.35, 0.184) m`` read as a real offset: the tool point to 1 um, as the rods, no -0."""
+    status, out, err = run(capsys, 'accuracy', str(PROGRAM), '--tolerances',
+                           str(config_path('calibration/tolerances_example.yaml')), '--samples', '0')
+    assert status == 0, err
+    tools = re.findall(r'^station .*, tool \((.*)\) m in gpr_platform$', out, re.M)
+    assert tools and all(re.fullmatch(r'-?\d+\.\d{6}, -?\d+\.\d{6}, -?\d+\.\d{6}', t) for t in tools), tools
+    assert '0.000000, 0.350000, 0.184000' in tools and not any('-0.000000' in t for t in tools)
+
+
+@pytest.mark.slow
+def test_export_and_send_check_in_the_cell_given_as_check_does(capsys, tmp_path):
+    """The engineer checks against a revised cell with ``check --cell``; ``export`` and ``send`` had no ``--cell`` and
+    checked the program's own: a trajectory certified against the old cell was written. pm1's slit 250 mm wide (340
+    shipped) puts the wafer (300 mm) into its jambs: refused by all three, status 1."""
+    cell = config_path('cells/example_cell.yaml').read_text()
+    old = '{name: pm1, chamber: {size: [500, 500, 250], wall: 10, slit: [340, 40]'
+    assert old in cell
+    (tmp_path / 'narrow.yaml').write_text(cell.replace(old, old.replace('340', '250')))
+    program = str(config_path('programs/example_cell_program.yaml'))
+    narrow = str(tmp_path / 'narrow.yaml')
+    status, out, _ = run(capsys, 'program', 'check', program, '--cell', narrow, '--no-progress')
+    assert status == 1 and 'pm1/' in out
+    out_file = tmp_path / 't.yaml'
+    status, out, err = run(capsys, 'program', 'export', program, '--trajectory', str(out_file), '--cell', narrow)
+    assert (status, out) == (1, '') and not out_file.exists()
+    assert err.startswith(f'gpr program export: error: the program itself is not safe in cell {narrow}: '), err
+    status, out, err = run(capsys, 'program', 'send', program, '--cell', narrow, '--timeout', '0.1')
+    assert (status, out) == (1, '') and err.startswith('gpr program send: error: the program itself is not safe in '
+                                                       f'cell {narrow}: '), err
+    status, _, err = run(capsys, 'program', 'export', program, '--samples', str(tmp_path / 's.csv'), '--cell',
+                         str(tmp_path / 'none.yaml'))
+    assert status == 2 and 'none.yaml' in err and not (tmp_path / 's.csv').exists()

@@ -324,10 +324,15 @@ def test_the_documented_program_is_accepted_and_planned(tmp_path):
     (tmp_path / 'programs' / 'more_stations.csv').write_text('name,x [mm],y [mm],z [mm]\nbuffer,900,-300,420\n')
     (tmp_path / 'programs' / 'p.yaml').write_text(text)
     program = load_program(tmp_path / 'programs' / 'p.yaml')
-    assert program.stations.stations.names == ('load_port_1', 'chamber_a', 'pm1', 'buffer')
+    assert program.stations.stations.names == ('low', 'high', 'load_port_1', 'pm1_front', 'pm1', 'buffer')
     assert [(s.kind, s.station, s.arm) for s in program.steps] == [
-        ('move', 'load_port_1', None), ('pick', 'load_port_1', None), ('place', 'chamber_a', None),
-        ('dwell', None, None)]
+        ('move', 'low', None), ('pick', 'load_port_1', None), ('move', 'low', None), ('move', 'high', None),
+        ('move', 'pm1_front', None), ('place', 'pm1', None), ('move', 'pm1_front', None), ('dwell', None, None)]
     assert program.cell is not None and program.wafers == ('load_port_1',)
     plan = plan_program(ROBOT, program)
     assert plan.timing.total > 0.0
+    # and safe in its cell: its first step put the blade on the wafer lying at load_port_1, its pick's retract
+    # into the pod's back (-16.4 mm), in the program the docs showed before
+    from gpr_kinematics.safety.cell import load_cell
+    from gpr_kinematics.safety.check import check_program
+    assert check_program(plan, load_cell(program.cell))[0].safe

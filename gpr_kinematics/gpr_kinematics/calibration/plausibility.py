@@ -88,7 +88,8 @@ def _check_plausible(meas: Measurements, errors: Array, frame: str,
                'metres under the "# units: mm" line? give them in mm' if metres else
                f'{few}{other}a machine that far from its nominal model (an arm\'s zero offset of a degree moves its '
                'wafer some centimetres): correct the nominal model first' + (f'; {hint}' if hint else ''))
-        unit = 'millimetres, as the file declares' if declared_mm else 'SI units'
+        unit = ('millimetres, as the file declares' if declared_mm else   # a column's own [mm] is no "SI units"
+                'the units it declares (m and rad where it names none)')
         exc = ImplausiblePoseError(f'{meas.where(i)}: the measured {what} from the nominal model\'s (allowed: '
                                    f'{limits}): not a measurement of this machine in {frame} in {unit} ({why})')
         exc.units, exc.angle, exc.target_fitted = mm or metres or bool(hint), meas.units[1], target_fitted

@@ -156,8 +156,10 @@ def format_budget(b: Budget, top: int = 3) -> str:
         lines.append(f'held by the calibration, compensated through the calibrated parameters (its alias): '
                      f'{", ".join(b.compensated)}')
     for i, label in enumerate(b.labels):
-        lines.append(f'station {label}: q = ({b.q[i, 0]:.6f}, {b.q[i, 1]:.6f}, {b.q[i, 2]:.6f}) m, tool '
-                     f'({b.tool[i, 0]:.6g}, {b.tool[i, 1]:.6g}, {b.tool[i, 2]:.6g}) m in gpr_platform')
+        # the tool to 1 um, as q (its rounding, 1.22465e-17 m, read as an offset; no -0.000000)
+        tool = ', '.join(f'{0.0 if abs(v) < 5e-7 else v:.6f}' for v in b.tool[i])
+        lines.append(f'station {label}: q = ({b.q[i, 0]:.6f}, {b.q[i, 1]:.6f}, {b.q[i, 2]:.6f}) m, tool ({tool}) m in '
+                     'gpr_platform')
         lines.append(f'  {"quantity":<20}{"unit":>5}{"RSS":>11}{"worst":>11}{pcols}  largest shares')
         for name, (_, unit) in QUANTITIES.items():
             u = 'um' if unit == 'm' else 'urad'

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from ..core.config import MODELS, GprConfig
 from ..errors import FileError, InputError, LimitError, apart, brief
-from ..inputs.resources import ROBOTS, Packaged, packaged_file
+from ..inputs.resources import CELLS, ROBOTS, Packaged, packaged_file
 from ..inputs.units import as_typed, metres
 from ..inputs.validation import TURN, beyond_turn, decimal, finite_number, number_hint
 from ..mechanisms.base import Mechanism, as_poses
@@ -306,12 +306,17 @@ def program_plan(args: argparse.Namespace, rate: float | None = None
     from ..robot.program import GIVEN_ROBOT, load_program, program_robot
     program = load_program(args.program)
     robot = named_file(program, 'robot', args.robot)
+    override = getattr(args, 'cell_override', None)   # export's and send's --cell (check's is args.cell)
+    if override is not None:   # the cell a program was checked in with --cell: export used its own without a word
+        import dataclasses
+        program = dataclasses.replace(program, cell=Path(override))
     if program.cell is not None:
         note_input(program.cell)
         if not hasattr(args, 'cell') and not os.path.isfile(program.cell):   # unread (check reads it): not dangling
             what = 'is not a regular file' if os.path.exists(program.cell) else 'does not exist'
-            raise FileError(f'{program.source}: cell file {str(program.cell)!r} (named by the program, relative to its '
-                            f'folder) {what}; allowed: an existing cell file, or no cell key')
+            whose = 'given as --cell' if override is not None else 'named by the program, relative to its folder'
+            raise FileError(f'{program.source}: cell file {str(program.cell)!r} ({whose}) {what}; allowed: an '
+                            'existing cell file' + ('' if override is not None else ', or no cell key'))
     if rate is not None:
         check_sample_count(program, rate)
     described = robot_of(args, robot)
@@ -407,7 +412,11 @@ def typed_tilt(args: argparse.Namespace, option: str, value: float, typed: float
 
 def robot_options(p: argparse.ArgumentParser, program: bool = False) -> None:
     """``--robot``, ``--config``, ``--model`` and ``--json``; ``program``: of a program's command, whose robot is the
-    program's own by default (the help said the packaged example's)."""
+    program's own by default (the help said the packaged example's), and ``export``'s and ``send``'s ``--cell``."""
+    if program and p.prog.split()[-1] in ('export', 'send'):
+        p.add_argument('--cell', metavar='FILE', type=shipped(CELLS), dest='cell_override',
+                       help="the process cell the program is checked in (default: the program's cell, else none), as "
+                       "gpr program check --cell")
     p.add_argument('--robot', metavar='FILE', type=shipped(ROBOTS),
                    help="robot description (default: the program's robot: file, else the packaged example_robot.yaml; "
                         "another robot than the program's is refused, its calibration taken)" if program else

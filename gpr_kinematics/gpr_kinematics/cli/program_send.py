@@ -156,9 +156,12 @@ def _lead_in(args: argparse.Namespace, plan: ProgramPlan, traj: JointTrajectory,
     from ..robot.trajectory import lead_in
     try:
         goal, start = lead_in(plan, traj, current, args.rate)
-        lead_in_keeps_clearance(plan, goal, start)
-    except RobotStateError as exc:
+    except RobotStateError as exc:   # a start it cannot leave: no lead-in
         return traj, None, f'gpr program send: {exc}'
+    try:
+        lead_in_keeps_clearance(plan, goal, start)
+    except RobotStateError as exc:   # the lead-in known (its --json said null while the line named it)
+        return goal, start, f'gpr program send: {exc}'
     now, _ = _where_the_robot_is(tc, client, traj.joint_names, joint_states, args)
     off = np.zeros(1) if now is None else abs(now - current)
     k = int(off.argmax())
