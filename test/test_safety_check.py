@@ -782,6 +782,15 @@ def test_the_plot_marks_and_names_the_closest_pair_the_first_collision_and_the_l
     fig.canvas.draw()
     for ax in (ax1, ax2):
         assert ax.get_legend().get_window_extent().x0 > ax.get_window_extent().x1
+    # each pick's and place's hold at its station marked on both axes and named above (a dip could not be placed in
+    # the program without the text table), at the instants the report's rows give
+    holds = [(m.start, m.label.split('(')[1].split(',')[0]) for m in report.moves if m.label.endswith(', at)')
+             and ('(pick ' in m.label or '(place ' in m.label)]
+    assert len(holds) == 6   # the program's 3 picks and 3 places
+    assert sorted((t.get_position()[0], t.get_text().strip()) for t in ax1.texts) == sorted(holds)
+    for ax in (ax1, ax2):
+        assert sorted(line.get_xdata()[0] for line in ax.lines if line.get_color() == '0.75') == sorted(
+            t for t, _ in holds)
     import matplotlib.pyplot as plt
     plt.close(fig)
 

@@ -1,5 +1,6 @@
 """``gpr program check --plot``: the certified clearance and the slip ratio against time, the margin and the limit
-drawn, the closest pair and the largest slip marked and named (matplotlib).
+drawn, the closest pair and the largest slip marked and named, each pick's and place's hold at its station marked
+(matplotlib).
 
 The clearance curve is, on each interval of the base sampling, the certified lower bound of every pair's distance
 there (the smallest over all pairs of the branch and bound's final bounds): the true clearance is never below it,
@@ -13,6 +14,7 @@ approach (the check of a safe program settles every bound near the margin or abo
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -24,6 +26,7 @@ from .check import SafetyReport
 from .clearance import ClearanceReport
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 #: Top of the clearance axis [mm] (raised to show a least clearance above it).
@@ -77,6 +80,7 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     ax2.set_ylim(0.0, max(1.1, float(np.max(slip[1], initial=0.0)) * 1.05))
     ax2.set_xlabel('time [s]')
     ax2.legend(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    _mark_stations(report, (ax1, ax2))
     what = Path(program).name if program is not None else 'program'
     where = f'in cell {Path(report.cell).name}' if report.cell else 'against itself (no cell)'
     fig.suptitle(f'{what} {where}: {"safe" if report.safe else "NOT safe"}\nminimum clearance {least:.3f} mm '
@@ -100,6 +104,23 @@ def plot_check(path: str | Path, clear: ClearanceReport, slip: tuple[NDArray[np.
     finally:
         plt.close(fig)
     return Path(path)
+
+
+#: A waypoint where a pick or place holds at its station (:attr:`~.check.MoveSafety.label`).
+_AT_STATION = re.compile(r'\((pick|place) (\S+), at\)$')
+
+
+def _mark_stations(report: SafetyReport, axes: tuple[Axes, Axes]) -> None:
+    """A thin vertical line at each pick's and place's hold at its station, named on the clearance axis (a dip could
+    not be placed in the program without the text table)."""
+    for m in report.moves:
+        found = _AT_STATION.search(m.label)
+        if found is None:
+            continue
+        for ax in axes:
+            ax.axvline(m.start, color='0.75', lw=0.6, zorder=0)
+        axes[0].text(m.start, 0.99, f' {found[1]} {found[2]}', transform=axes[0].get_xaxis_transform(), rotation=90,
+                     va='top', ha='right', fontsize=6, color='0.45')
 
 
 def _beyond(b: BudgetReport | None) -> str:
