@@ -447,3 +447,29 @@ def test_a_joint_triangle_that_turns_over_has_no_bound_on_its_turn():
         A, omega, drift = platform_motion(geo, np.zeros((1, 3)), np.array([[0.0, 0.0, 2.0]]), np.zeros(1), np.ones(1),
                                           np.full((1, 2), 1e9), np.zeros((1, 2)), LIPSCHITZ)
     assert omega[0] == math.inf and A[0] == pytest.approx(2.0 / 3.0, rel=1e-15) and drift[0] == 0.0
+
+
+def test_a_motion_bound_that_is_no_number_proves_nothing(monkeypatch):
+    """A motion bound of NaN (inf x 0 of a rate bound and a zero lever) made the interval's certificate NaN, and a NaN
+    distance compared below the margin as False: the pair read as safe. Such a bound is -inf: the pair is not shown
+    the margin apart, the program not safe."""
+    import dataclasses
+
+    from gpr_kinematics.inputs.resources import config_path
+    from gpr_kinematics.robot import load_robot
+    from gpr_kinematics.robot.plan import plan_program
+    from gpr_kinematics.robot.program import load_program
+    from gpr_kinematics.safety.check import check_program
+    from gpr_kinematics.safety.motion import PlanMotion
+
+    plan = plan_program(load_robot(), load_program(config_path('programs/example_robot_program.yaml')))
+    original = PlanMotion.bounds
+
+    def nan_bounds(self, *args):
+        b = original(self, *args)
+        return dataclasses.replace(b, arm=np.full(b.arm.shape, np.nan))
+
+    monkeypatch.setattr(PlanMotion, 'bounds', nan_bounds)
+    report = check_program(plan, None)[0]
+    assert not report.safe and report.collisions and report.min_clearance == -np.inf
+    assert all(not c.measured_below for c in report.collisions)   # bounds only: not shown the margin apart

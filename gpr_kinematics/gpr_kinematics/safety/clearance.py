@@ -312,6 +312,7 @@ class _Search:
             for d, lv in ((d0, l0), (d1, l1)):
                 np.minimum.at(upper, items.p[lv == 2], d[lv == 2])
             bound = self._bound(items, d0, d1, (l0 == 2) & (l1 == 2))
+            nothing = _proves_nothing(bound)
             tol = np.maximum(self.tol, RELATIVE * (np.minimum(np.abs(upper), 1e3) - NEAR))
             short = self.store.t(items.i1) - self.store.t(items.i0) <= MIN_INTERVAL
             # measuring: to the tolerance, and a pair measured at or above the margin on to the margin (a bound
@@ -319,7 +320,7 @@ class _Search:
             target = np.full(upper.shape, self.margin) if self.decide else \
                 np.where(upper >= self.margin, np.maximum(upper - tol, self.margin), upper - tol)
             decided = (upper < self.margin) if self.decide else np.zeros(upper.shape, dtype=bool)
-            done = (bound >= target[items.p]) | (short & (l0 == 2) & (l1 == 2)) | decided[items.p]
+            done = (bound >= target[items.p]) | (short & (l0 == 2) & (l1 == 2)) | decided[items.p] | nothing
             np.minimum.at(floor, items.p[done], bound[done])
             np.minimum.at(series, items.base[done], bound[done])
             settled += self._settled(items, done)
@@ -335,7 +336,7 @@ class _Search:
                 self.boxes(np.concatenate([r.p, r.p]), np.concatenate([r.i0, r.i1]))
                 (e0, m0), (e1, m1) = self.lower(r.p, r.i0), self.lower(r.p, r.i1)
                 rb = self._bound(r, e0, e1, (m0 == 2) & (m1 == 2))
-                ok = rb >= target[r.p]
+                ok = (rb >= target[r.p]) | _proves_nothing(rb)
                 np.minimum.at(floor, r.p[ok], rb[ok])
                 np.minimum.at(series, r.base[ok], rb[ok])
                 settled += self._settled(r, ok)
@@ -351,6 +352,7 @@ class _Search:
         if items.p.size:   # out of rounds or instants: what is left keeps its bound (a lower bound still)
             (d0, l0), (d1, l1) = self.lower(items.p, items.i0), self.lower(items.p, items.i1)
             bound = self._bound(items, d0, d1, (l0 == 2) & (l1 == 2))
+            _proves_nothing(bound)
             np.minimum.at(floor, items.p, bound)
             np.minimum.at(series, items.base, bound)
         progress(1.0)
@@ -425,3 +427,13 @@ class _Search:
         lowest = results[0].distance if results else float('inf')
         return ClearanceReport(tuple(results), float(lowest), float(self.margin), float(self.tol), self.exact.calls,
                                self.store.n, (base_t, series))
+
+
+def _proves_nothing(bound: Array) -> NDArray[np.bool_]:
+    """The certificates of ``bound`` that are no number (a motion bound of NaN: inf x 0 of a rate bound and a zero
+    lever), set to -inf in place: below any margin, settled, not split (compared with the margin, a NaN read as
+    safe; split, it never settled and the search grew to 18 GB)."""
+    nothing = np.isnan(bound)
+    bound[nothing] = -np.inf
+    return nothing
+
