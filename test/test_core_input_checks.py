@@ -195,7 +195,7 @@ def test_per_row_geometry_names_and_joint_play_are_bounded():
 
 
 def test_none_is_no_number():
-    """numpy reads None as NaN: robot_forward(robot, [None] * 3, ...) said 'gpr_rod1 = nan is not a finite number',
+    """numpy reads None as NaN: robot_forward(robot, [None] * 3, ...) said 'rod_1 = nan is not a finite number',
     Stations.of(P, tilt=None) 'tilt = nan', forward([0.5, None, 0.5]) 'q2 = nan': None is named as given."""
     from gpr_kinematics.robot.stations import Stations
 

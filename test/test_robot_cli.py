@@ -70,7 +70,7 @@ def test_teach_and_reteach(capsys, tmp_path):
     d = run_json(capsys, 'robot', 'teach', '--rods', '0.25', '0.251', '0.252', '--joints', '0', '1', '-0.5')
     assert d['reteach'] is False and len(d['stations']) == 1 and d['stations'][0]['naive_error'] > 1e-6
     table = tmp_path / 'old.csv'
-    table.write_text('name,gpr_rod1 [mm],gpr_rod2 [mm],gpr_rod3 [mm],arm1_shoulder [deg],arm1_elbow [deg],'
+    table.write_text('name,rod_1 [mm],rod_2 [mm],rod_3 [mm],arm1_shoulder [deg],arm1_elbow [deg],'
                      'arm1_wrist [deg]\na,250,251,252,0,57.29577951308232,-28.64788975654116\n'
                      'b,300,299,301,20,40,-10\n')
     r = run_json(capsys, 'robot', 'teach', '--table', str(table), '--naive')
@@ -83,22 +83,22 @@ def test_teach_and_reteach(capsys, tmp_path):
 
 @pytest.mark.parametrize('naive', [(), ('--naive',)])
 def test_a_bad_row_of_a_joint_table_is_located(capsys, tmp_path, naive):
-    # It said "q2 = 0.6 m (sample 1) is outside the stroke" (0-based, no file, no name), and gpr_rod2 with --naive.
-    header = 'name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+    # It said "q2 = 0.6 m (sample 1) is outside the stroke" (0-based, no file, no name), and rod_2 with --naive.
+    header = 'name,rod_1,rod_2,rod_3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
     table = tmp_path / 'old.csv'
     table.write_text(header + 's1,0.25,0.251,0.252,0,1,-0.5\ns2,0.25,0.6,0.252,0,1,-0.5\n')
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), *naive)
     assert status == 2 and out == '' and err.count('\n') == 1, err
-    assert re.search(r"old.csv: line 3 \(row 2, station 's2'\): gpr_rod2 = 0.6 m is outside the stroke "
+    assert re.search(r"old.csv: line 3 \(row 2, station 's2'\): rod_2 = 0.6 m is outside the stroke "
                      r'\[0, 0.508\] m$', err.strip()), err
     table.write_text(header.replace('name,', '') + '0.25,0.251,0.252,0,1,-0.5\n# a comment\n0.25,0.6,0.252,0,1,-0.5\n')
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), *naive)
-    assert status == 2 and re.search(r'old.csv: line 4 \(row 2\): gpr_rod2 = 0.6 m is outside', err), err
+    assert status == 2 and re.search(r'old.csv: line 4 \(row 2\): rod_2 = 0.6 m is outside', err), err
 
 
 def test_degrees_in_a_joint_table_without_units_get_a_hint(capsys, tmp_path):
     table = tmp_path / 'deg.csv'
-    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+    table.write_text('name,rod_1,rod_2,rod_3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
                      's1,0.25,0.251,0.252,0,57.2957795,-0.5\n')
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table))
     assert status == 2 and out == '' and err.count('\n') == 1, err
@@ -106,15 +106,15 @@ def test_degrees_in_a_joint_table_without_units_get_a_hint(capsys, tmp_path):
                      r'limit 2.9 rad by 54.4 rad; allowed: \[-2.9, 2.9\] rad; in degrees it would be within: give the '
                      r'column its unit, "arm1_elbow \[deg\]", or a "# units: deg" line before the header$',
                      err.strip()), err
-    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n0.25,0.251,0.252,0,500,0\n')
+    table.write_text('rod_1,rod_2,rod_3,arm1_shoulder,arm1_elbow,arm1_wrist\n0.25,0.251,0.252,0,500,0\n')
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table))  # beyond as degrees too: no hint
     assert status == 2 and err.rstrip().endswith('arm1_elbow = 500 rad is beyond its upper limit 2.9 rad by 497 rad; '
                                                  'allowed: [-2.9, 2.9] rad'), err
     # rods in millimetres, likewise (it had no hint)
-    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n250,251,252,0,1,-0.5\n')
+    table.write_text('rod_1,rod_2,rod_3,arm1_shoulder,arm1_elbow,arm1_wrist\n250,251,252,0,1,-0.5\n')
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table))
-    assert status == 2 and err.rstrip().endswith('gpr_rod1 = 250 m is outside the stroke [0, 0.508] m; in millimetres '
-                                                 'it would be within: give the column its unit, "gpr_rod1 [mm]", or a '
+    assert status == 2 and err.rstrip().endswith('rod_1 = 250 m is outside the stroke [0, 0.508] m; in millimetres '
+                                                 'it would be within: give the column its unit, "rod_1 [mm]", or a '
                                                  '"# units: mm" line before the header'), err
     # --deg and --mm convert --rods and --joints; they were ignored with a table
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), '--deg')
@@ -136,7 +136,7 @@ def test_degrees_in_a_column_without_unit_are_refused_with_naive(capsys, tmp_pat
     """--naive held the old joints to +-1e6 rad only: arm1_elbow 57.2957795 (1 rad in degrees) was re-taught as 57
     rad. More than a turn beyond its limits it is refused, naming the column, line, row and value, and the unit."""
     table = tmp_path / 'deg.csv'
-    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+    table.write_text('name,rod_1,rod_2,rod_3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
                      's1,0.25,0.251,0.252,0,1,-0.5\ns2,0.25,0.251,0.252,0,57.2957795,-0.5\n')
     status, out, err = run(capsys, 'robot', 'teach', '--table', str(table), '--naive')
     assert status == 2 and out == '' and err.count('\n') == 1, err
@@ -214,7 +214,7 @@ def test_program_check_and_export(capsys, tmp_path):
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0'],
      r'^gpr robot fk: error: --joints: 2 values for arm arm1, which has 3 joints \(arm1_shoulder, arm1_elbow, '
      r'arm1_wrist\); allowed: one value per joint, shoulder first$'),
-    (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'gpr_rod3 = 0.9 m is outside the '
+    (['robot', 'fk', '--rods', '0.3', '0.3', '0.9', '--joints', '0', '0', '0'], r'rod_3 = 0.9 m is outside the '
                                                                                   r'stroke'),
     (['robot', 'teach'], r'give the joints: --rods Q1 Q2 Q3 and --joints J1 J2 \[J3 J4\], or --table FILE'),
     (['robot', 'fk', '--rods', '0.3', '0.3', '0.3', '--joints', '0', '0', '0', '--robot', '/nonexistent.yaml'],

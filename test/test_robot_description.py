@@ -17,7 +17,7 @@ def test_shipped_example():
     r = ROBOT
     assert r.name == 'example_dual_arm' and r.arm_names == ('arm1', 'arm2')
     assert r.config == load_config()
-    assert r.rods.names == ('gpr_rod1', 'gpr_rod2', 'gpr_rod3')
+    assert r.rods.names == ('rod_1', 'rod_2', 'rod_3')
     a1, a2 = r.arm('arm1'), r.arm('arm2')
     assert a1.joint_names == ('arm1_shoulder', 'arm1_elbow', 'arm1_wrist') and len(a2.joints) == 4
     assert a1.wafer_height == pytest.approx(0.08 + 0.035 + 0.035 + 0.02 + 0.01 + 0.004, abs=1e-15)
@@ -144,11 +144,9 @@ _DELETE = object()
     (('arms', 1, 'redundancy', 'value'), 2.6, r'value = 2.6 is invalid; allowed: within the limits of arm2_wrist'),
     (('arms', 1, 'redundancy', 'reference'), [0, 0, 0, 0], r'unknown key\(s\) reference; allowed keys: joint, rule'),
     (('arms', 1, 'name'), 'arm1', r'names must be unique across rods, arms and joints; repeated: arm1'),
-    (('arms', 1, 'joints', 0, 'name'), 'gpr_rod1', r'repeated: gpr_rod1'),
+    (('arms', 1, 'joints', 0, 'name'), 'rod_1', r'repeated: rod_1'),
     # the rods' joint names on joint_states: an arm joint rod_1 made a trajectory name rod_1 twice, rods named
     # [rod_2, rod_1, rod_3] a table's rod_2 column hold q1 (both were accepted; the URDF refused the first)
-    (('arms', 1, 'joints', 0, 'name'), 'rod_1', r"arm joint name\(s\) rod_1 are the rods' joint names on joint_states "
-     r'and in trajectories; allowed: other names than rod_1, rod_2, rod_3'),
     (('rods', 'names'), ['rod_2', 'rod_1', 'rod_3'], r"rods: names\[0\] = 'rod_2' is rod 2's joint name on "
      r"joint_states and in trajectories; allowed: 'rod_1' for rod 1, or a name other than rod_1, rod_2, rod_3"),
 ])
@@ -156,6 +154,17 @@ def test_bad_values_are_named(path, value, pattern):
     data = robot_data()
     _set(data, path, value)
     with pytest.raises(ConfigError, match=pattern):
+        make_robot(data)
+
+
+def test_an_arm_joint_named_as_a_rods_joint_on_joint_states_is_refused():
+    """The rods named otherwise (the example's are rod_1 .. rod_3 themselves): an arm joint rod_1 made a trajectory
+    name rod_1 twice (accepted; the URDF refused it)."""
+    data = robot_data()
+    _set(data, ('rods', 'names'), ['z1', 'z2', 'z3'])
+    _set(data, ('arms', 1, 'joints', 0, 'name'), 'rod_1')
+    with pytest.raises(ConfigError, match=r"arm joint name\(s\) rod_1 are the rods' joint names on joint_states and "
+                                          r'in trajectories; allowed: other names than rod_1, rod_2, rod_3'):
         make_robot(data)
 
 

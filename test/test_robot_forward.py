@@ -122,13 +122,13 @@ def test_naive_error_at_a_tilt_is_micrometres():
      r'rad; allowed: \[-2.9, 2.9\] rad; 57.2957795 deg would be within them: degrees given as radians\?$'),
     ([[0.3, 0.3, 0.3], [0.3, 0.3, 0.3]], [[0.0, 0.0, 0.0], [0.0, 0.0, -3.1]], LimitError,
      r'^arm1_wrist = -3.1 rad \(sample 1\) is beyond its lower limit -3.05 rad by 0.05 rad'),
-    ([[0.3, 0.3, 0.6]], [[0.0, 0.0, 0.0]], LimitError, r'^gpr_rod3 = 0.6 m is outside the stroke'),   # was q3
+    ([[0.3, 0.3, 0.6]], [[0.0, 0.0, 0.0]], LimitError, r'^rod_3 = 0.6 m is outside the stroke'),   # was q3
     ([[0.3, 0.3, 0.3], [0.3, 0.6, 0.3]], [[0.0, 0.0, 0.0]] * 2, LimitError,
-     r'^gpr_rod2 = 0.6 m \(sample 1\) is outside the stroke'),
+     r'^rod_2 = 0.6 m \(sample 1\) is outside the stroke'),
     ([[250.0, 251.0, 252.0]], [[0.0, 0.0, 0.0]], LimitError,   # typed rods: the hint of millimetres
-     r'^gpr_rod1 = 250 m is outside the stroke \[0, 0.508\] m; 250 mm would be within it: millimetres given as '
+     r'^rod_1 = 250 m is outside the stroke \[0, 0.508\] m; 250 mm would be within it: millimetres given as '
      r'metres\?$'),
-    ([[0.3, 0.3, float('nan')]], [[0.0, 0.0, 0.0]], InputError, r'^gpr_rod3 = nan is not a finite number; allowed: '
+    ([[0.3, 0.3, float('nan')]], [[0.0, 0.0, 0.0]], InputError, r'^rod_3 = nan is not a finite number; allowed: '
      r'finite values in SI units$'),   # it named no rule
     ([[0.3, 0.3, 0.3]], [[0.0, float('inf'), 0.0]], InputError, r'^arm1_elbow = inf is not a finite number; '
      r'allowed: finite values in SI units$'),
@@ -157,6 +157,6 @@ def test_rods_tilting_beyond_the_limit_are_named_by_the_robot():
     """The core names rods ``q``; the robot's forward kinematics (one configuration and a batch) named them so too,
     where the stroke's refusal names the robot's rods: now its rods' names come first."""
     for rods in ([[0.25, 0.265, 0.25]], [[0.25, 0.25, 0.25], [0.25, 0.265, 0.25]]):
-        with pytest.raises(LimitError, match=r'^gpr_rod1, gpr_rod2, gpr_rod3: q = \[0\.25, 0\.265, 0\.25\] m '
+        with pytest.raises(LimitError, match=r'^rod_1, rod_2, rod_3: q = \[0\.25, 0\.265, 0\.25\] m '
                                              r'(\(sample 1\) )?tilts the platform by about 0\.1075 rad'):
             robot_forward(ROBOT, rods, [[0.0, 1.0, -0.5]] * len(rods), 'arm1')

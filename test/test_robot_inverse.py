@@ -173,7 +173,7 @@ def test_rods_that_are_not_parallel_beyond_the_stroke_are_refused_in_the_robots_
     for dz, side, by in ((-0.01, 'below', '0.009994 m (9.994 mm)'), (-1.0, 'below', '0.9994 m (999.4 mm)'),
                          (-60.0, 'below', '59.96 m (5.996e+04 mm)'), (0.05 + 0.508, 'above', '0.04965 m (49.65 mm)')):
         moved = Stations.of(st.position + [0.0, 0.0, dz], st.tilt, st.azimuth, st.heading)
-        with pytest.raises(LimitError, match=rf'^station 0: gpr_rod1 = \S+ m is {side} the stroke \[0, 0\.508\] m by '
+        with pytest.raises(LimitError, match=rf'^station 0: rod_1 = \S+ m is {side} the stroke \[0, 0\.508\] m by '
                                              rf'{re.escape(by)}: the station is too {"low" if dz < 0 else "high"} for '
                                              r'arm arm1$'):
             solve_stations(robot, moved, 'arm1', branch='right')
@@ -467,9 +467,9 @@ def test_naive_wafer_error_grows_with_tilt_and_reach():
     ({'tilt': math.radians(2.5)}, {},
      r'station 0: the station plane tilts 2.5 deg in gpr_base, beyond the tilt limit 2 deg by 0.5 deg'),
     # level station: every rod at z - 0.184 m (the arm's wafer height above the platform)
-    ({'z': 0.95}, {}, r'station 0: gpr_rod1 = 0.766 m is above the stroke \[0, 0.508\] m by 0\.258 m \(258 mm\): the '
+    ({'z': 0.95}, {}, r'station 0: rod_1 = 0.766 m is above the stroke \[0, 0.508\] m by 0\.258 m \(258 mm\): the '
                       r'station is too high for arm arm1'),
-    ({'z': 0.05}, {}, r'station 0: gpr_rod1 = -0.134 m is below the stroke \[0, 0.508\] m by 0\.134 m \(134 mm\): the '
+    ({'z': 0.05}, {}, r'station 0: rod_1 = -0.134 m is below the stroke \[0, 0.508\] m by 0\.134 m \(134 mm\): the '
                       r'station is too low for arm arm1'),
     ({'x': 2.0}, {}, r'station 0: out of reach of arm arm1: the wrist axis would be 1.\d+ m from the shoulder axis, '
                      r'the arm spans \[0, 0.6\] m \(\d+(\.\d+)? mm too far\)'),

@@ -182,7 +182,7 @@ def test_held_joint_value_per_call_equals_the_batch():
 
 @pytest.mark.parametrize('change, pattern', [
     ({'tilt': math.radians(2.5)}, r'station 0: the station plane tilts 2.5 deg in gpr_base, beyond the tilt limit'),
-    ({'z': 0.95}, r'station 0: gpr_rod1 = .* m is above the stroke'),
+    ({'z': 0.95}, r'station 0: rod_1 = .* m is above the stroke'),
     ({'x': 2.0}, r'station 0: out of reach of arm arm1'),
     ({'x': 1.14, 'heading': math.pi + 0.25}, r'station 0: arm1_wrist = .* rad is beyond its upper limit 3.05 rad'),
 ])
@@ -229,7 +229,7 @@ def test_robot_forward_of_one_configuration_equals_the_batch(case):
 
 def test_robot_forward_of_one_configuration_refuses_like_the_batch():
     Q, J = random_postures(ROBOT, 'arm1', 1, seed=14)
-    for rods, joints, pattern in ((Q + 0.6, J, r'gpr_rod\d = [\d.]+ m( \(sample 0\))? is outside the stroke'),
+    for rods, joints, pattern in ((Q + 0.6, J, r'rod_\d = [\d.]+ m( \(sample 0\))? is outside the stroke'),
                                   (Q, J + 10.0, r'arm1_\w+ = [\d.]+ rad( \(sample 0\))? is beyond its upper limit')):
         with pytest.raises(LimitError, match=pattern):
             robot_forward(ROBOT, rods, joints, 'arm1')
@@ -358,7 +358,7 @@ def test_a_tilted_station_with_one_rod_above_the_stroke_is_refused_per_call_and_
     paths mark it infeasible under check=False and refuse it with one message."""
     st = Stations.of([[1.1, 0.5, z]], math.radians(1.9), azimuth, 0.0)
     assert solve_one(ROBOT, st, ROBOT.arm('arm1'), branch_sign('right'), None) is None
-    message = (f'station 0: gpr_rod{rod} = {value} m is above the stroke [0, 0.508] m by {by} mm): the station is too '
+    message = (f'station 0: rod_{rod} = {value} m is above the stroke [0, 0.508] m by {by} mm): the station is too '
                f'high for arm arm1')
     for stations, more in ((st, ''), (st.take([0, 0]), ' (and 1 more station)')):
         sol = solve_stations(ROBOT, stations, 'arm1', 'right', check=False)

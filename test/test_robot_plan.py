@@ -160,7 +160,7 @@ def test_a_station_below_the_stroke_on_rods_that_are_not_parallel_is_named_with_
     rows = [{'name': name, 'position': st.position[i].tolist(), 'tilt': float(st.tilt[i]),
              'azimuth': float(st.azimuth[i]), 'heading': float(st.heading[i])} for i, name in enumerate(['s1', 'low'])]
     p = _program_file(tmp_path, rows, [{'move': 's1'}, {'dwell': 1.0}, {'move': 's1'}, {'move': 'low'}])
-    with pytest.raises(LimitError, match=r"/p.yaml: steps\[3\] \(move low, move\): station low: gpr_rod1 = "
+    with pytest.raises(LimitError, match=r"/p.yaml: steps\[3\] \(move low, move\): station low: rod_1 = "
                                          r"-0.0099\d+ m is below the stroke \[0, 0.508\] m by 0\.0099\d+ m "
                                          r"\(9.99\d mm\): the station is too low for arm arm1$"):
         plan_program(robot, p)

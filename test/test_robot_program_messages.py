@@ -104,13 +104,13 @@ def test_an_imported_station_file_that_cannot_be_read_is_named_with_the_program(
 def test_a_teach_tables_header_example_is_one_of_its_own_columns(tmp_path):
     """A mistyped teach table header listed the allowed columns, then `e.g. "x [mm]"`: a teach table has no x."""
     t = tmp_path / 'old.csv'
-    t.write_text('name,gpr_rod1 [mm],gpr_rod2 [mm],gpr_rod3 [mm],arm1_shoulder [deg],arm1_elbw [deg],arm1_wrist [deg]\n'
+    t.write_text('name,rod_1 [mm],rod_2 [mm],rod_3 [mm],arm1_shoulder [deg],arm1_elbw [deg],arm1_wrist [deg]\n'
                  's1,166,166.7,165.3,-59.7,120,-60.3\n')
     with pytest.raises(ConfigError) as info:
         read_joint_table(t, ROBOT, 'arm1')
-    assert str(info.value) == (f"{t}: header column 6 'arm1_elbw [deg]' is invalid; allowed: name, gpr_rod1, gpr_rod2, "
-                               'gpr_rod3, arm1_shoulder, arm1_elbow, arm1_wrist, each with an optional unit in '
-                               'brackets, e.g. "gpr_rod1 [mm]"')
+    assert str(info.value) == (f"{t}: header column 6 'arm1_elbw [deg]' is invalid; allowed: name, rod_1, rod_2, "
+                               'rod_3, arm1_shoulder, arm1_elbow, arm1_wrist, each with an optional unit in '
+                               'brackets, e.g. "rod_1 [mm]"')
     s = tmp_path / 'st.csv'   # a station file keeps its x
     s.write_text('name,x [mm],y [mm],z [mm],hight [mm]\na,1250,500,350,1\n')
     with pytest.raises(ConfigError, match=r'each with an optional unit in brackets, e\.g\. "x \[mm\]"$'):

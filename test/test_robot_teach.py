@@ -187,7 +187,7 @@ def test_reteach_refuses_each_old_rod_outside_the_stroke(k):
     refused, named."""
     q = [0.3, 0.3, 0.3]
     q[k] = 0.52
-    words = rf'^gpr_rod{k + 1} = 0.52 m \(sample 1\) is outside the stroke \[0, 0.508\] m'
+    words = rf'^rod_{k + 1} = 0.52 m \(sample 1\) is outside the stroke \[0, 0.508\] m'
     with pytest.raises(LimitError, match=words):
         reteach(ROBOT, [[0.3, 0.3, 0.3], q], [[0.0, 1.0, 0.1]] * 2, 'arm1')
 
@@ -201,8 +201,8 @@ def test_a_joint_table_needs_every_rod_and_joint_column(tmp_path):
     a = ROBOT.arm('arm1')
     table = tmp_path / 'j.csv'
     table.write_text(','.join([*ROBOT.rods.names, *a.joint_names[:2]]) + '\n0.3,0.3,0.3,0.0,1.0\n')
-    with pytest.raises(ConfigError, match=r'j.csv: the header lacks the column\(s\) arm1_wrist; required: gpr_rod1, '
-                                          r'gpr_rod2, gpr_rod3, arm1_shoulder, arm1_elbow, arm1_wrist$'):
+    with pytest.raises(ConfigError, match=r'j.csv: the header lacks the column\(s\) arm1_wrist; required: rod_1, '
+                                          r'rod_2, rod_3, arm1_shoulder, arm1_elbow, arm1_wrist$'):
         read_joint_table(table, ROBOT, 'arm1')
     table.write_text(','.join([*ROBOT.rods.names, *a.joint_names]) + '\n0.3,0.3,0.3,0.0,1.0,0.1\n')
     names, rods, joints = read_joint_table(table, ROBOT, 'arm1')
@@ -238,7 +238,7 @@ def test_reteach_refuses_a_held_joint_beyond_its_limits_naming_the_row(tmp_path,
     gave, without the file or the row; now named as the table's other rows are."""
     from gpr_kinematics.cli.main import main
     table = tmp_path / 'old.csv'
-    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm2_shoulder,arm2_elbow,arm2_wrist,arm2_hand\n'
+    table.write_text('name,rod_1,rod_2,rod_3,arm2_shoulder,arm2_elbow,arm2_wrist,arm2_hand\n'
                      's0,0.25,0.251,0.252,0,1,0.3,-0.5\ns1,0.25,0.251,0.252,0,1,2.6,-0.5\n')
     assert main(['robot', 'teach', '--table', str(table), '--naive', '--arm', 'arm2']) == 2
     assert capsys.readouterr().err == (
@@ -304,7 +304,7 @@ def test_a_joint_table_row_beyond_the_tilt_limit_is_named(tmp_path):
 
 
 def test_refusals_name_the_robots_own_rods():
-    """A robot whose rods are named lift_a .. lift_c: robot_forward and teach said q1, reteach gpr_rod1 (a name this
+    """A robot whose rods are named lift_a .. lift_c: robot_forward and teach said q1, reteach rod_1 (a name this
     robot does not have), where its NaN, robot ik and the joint tables said lift_a (docs/robot.md: the names of the
     refusals)."""
     data = robot_data()
@@ -331,7 +331,7 @@ def test_a_naive_tables_old_rods_are_named_by_file_row_and_station(tmp_path, cap
     or the station: now the file, the row from 1 and the station, as the table without --naive names them."""
     from gpr_kinematics.cli.main import main
     table = tmp_path / 't.csv'
-    table.write_text('name,gpr_rod1,gpr_rod2,gpr_rod3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
+    table.write_text('name,rod_1,rod_2,rod_3,arm1_shoulder,arm1_elbow,arm1_wrist\n'
                      's0,0.25,0.25,0.25,0,1,0\ns1,0.10,0.16,0.10,0,2.0,0\n')
     assert main(['robot', 'teach', '--table', str(table), '--naive']) == 2
     err = capsys.readouterr().err
@@ -355,19 +355,19 @@ def test_a_joint_table_of_another_arm_says_which_arm(tmp_path):
     from gpr_kinematics.robot.teach import read_joint_table
 
     table = tmp_path / 't2.csv'
-    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,arm2_shoulder [deg],arm2_elbow,arm2_wrist,arm2_hand\n'
+    table.write_text('rod_1,rod_2,rod_3,arm2_shoulder [deg],arm2_elbow,arm2_wrist,arm2_hand\n'
                      '0.3,0.301,0.302,1,-1.8,0.2,0.8\n')
     with pytest.raises(ConfigError, match=r"header column 4 'arm2_shoulder \[deg\]' is invalid; .* \(the header "
                                           r"names arm arm2's joints: give that arm, --arm arm2\)$"):
         read_joint_table(table, ROBOT)
     assert read_joint_table(table, ROBOT, 'arm2')[1].shape == (1, 3)
-    for header in ('"gpr_rod1","gpr_rod2","gpr_rod3","arm2_shoulder","arm2_elbow","arm2_wrist","arm2_hand"',   # quoted
-                   'gpr_rod1,gpr_rod2,gpr_rod3,arm2_shoulder [rad],arm2_elbow [rad],arm2_wrist [rad],arm2_hand [rad]'):
+    for header in ('"rod_1","rod_2","rod_3","arm2_shoulder","arm2_elbow","arm2_wrist","arm2_hand"',   # quoted
+                   'rod_1,rod_2,rod_3,arm2_shoulder [rad],arm2_elbow [rad],arm2_wrist [rad],arm2_hand [rad]'):
         for comment in ('', '# taught on the old tool\n'):
             table.write_text(f'{comment}{header}\n0.3,0.301,0.302,1,-1.8,0.2,0.8\n')
             with pytest.raises(ConfigError, match=r"--arm arm2\)$"):
                 read_joint_table(table, ROBOT)
-    table.write_text('gpr_rod1,gpr_rod2,gpr_rod3,elbow\n0.3,0.3,0.3,1\n')   # no arm's: as before
+    table.write_text('rod_1,rod_2,rod_3,elbow\n0.3,0.3,0.3,1\n')   # no arm's: as before
     with pytest.raises(ConfigError, match=r"header column 4 'elbow' is invalid; allowed: [^(]*$"):
         read_joint_table(table, ROBOT)
 
@@ -424,10 +424,10 @@ def test_reteach_checks_the_old_rods_once(stroke_checks):
 
 def test_the_one_configuration_path_of_the_nodes_names_the_robots_rods():
     """forward_floats (the robot forward kinematics service's path) left the stroke to the core, which named the rods
-    q1 .. q3 where robot_forward names the robot's: 'gpr_rod3 = 0.6 m is outside the stroke'."""
+    q1 .. q3 where robot_forward names the robot's: 'rod_3 = 0.6 m is outside the stroke'."""
     from gpr_kinematics.robot.forward import forward_floats
 
-    with pytest.raises(LimitError, match=r'^gpr_rod3 = 0.6 m is outside the stroke \[0, 0.508\] m$'):
+    with pytest.raises(LimitError, match=r'^rod_3 = 0.6 m is outside the stroke \[0, 0.508\] m$'):
         forward_floats(ROBOT, ROBOT.arm('arm1'), [0.3, 0.3, 0.6], [0.0, 1.0, 0.1])
-    with pytest.raises(LimitError, match=r'^gpr_rod1 = 250 m is outside the stroke .* millimetres given as metres\?$'):
+    with pytest.raises(LimitError, match=r'^rod_1 = 250 m is outside the stroke .* millimetres given as metres\?$'):
         forward_floats(ROBOT, ROBOT.arm('arm1'), [250.0, 0.3, 0.3], [0.0, 1.0, 0.1])

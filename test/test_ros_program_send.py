@@ -73,7 +73,7 @@ def test_the_example_program_runs_on_the_simulator(sent):
 @pytest.mark.slow
 def test_recorded_joint_states_equal_the_export_samples_at_every_point(sent):
     """The goal's joint_states (stamped start + k / rate) at the program's points equal the rows of `gpr program
-    export --samples --rate 10` (the rods named rod_1..rod_3 there as gpr_rod1..3 by the description)."""
+    export --samples --rate 10` (the rods named rod_1..rod_3 there as rod_1..3 by the description)."""
     status, out, _, states, _ = sent
     assert status == 0
     result = json.loads(out)

@@ -218,7 +218,7 @@ def register(sub: Subparsers) -> None:
     p.add_argument('--rods', type=number, nargs=3, metavar='Q', help='rod lengths [m, or mm]')
     p.add_argument('--joints', type=number, nargs='+', metavar='J', help='arm joints [rad, or deg]')
     p.add_argument('--table', metavar='CSV', help='many: a CSV with a header naming the rods and joints (units in '
-                                                  'brackets, e.g. "gpr_rod1 [mm]") and an optional name column')
+                                                  'brackets, e.g. "rod_1 [mm]") and an optional name column')
     p.add_argument('--naive', action='store_true', help='the joints came from the naive model (the old tool): '
                                                         'print the joints that put the wafer where it meant')
     p.add_argument('--arm', help='arm name (default: the first arm)')

@@ -1,7 +1,7 @@
 """The stroke of the rods: the one check of rod lengths against ``[stroke_min, stroke_max]`` and its words.
 
 Forward kinematics (:mod:`gpr_kinematics.core.forward`), inverse kinematics' answers, the accuracy budget and the
-robot's paths (rods named by the robot: ``gpr_rod1``; a joint table's row with its file and line) refuse a rod
+robot's paths (rods named by the robot: ``rod_1``; a joint table's row with its file and line) refuse a rod
 length here, so that one rule and one message serve them all. Lengths in metres.
 """
 from __future__ import annotations

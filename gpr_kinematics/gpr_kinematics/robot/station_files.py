@@ -333,7 +333,7 @@ def read_csv_table(text: str, where: str, kinds: dict[str, str], required: tuple
 
 
 def _unit_example(kinds: dict[str, str]) -> str:
-    """A header cell of the first column with a unit, e.g. ``"x [mm]"`` (a station file), ``"gpr_rod1 [mm]"``."""
+    """A header cell of the first column with a unit, e.g. ``"x [mm]"`` (a station file), ``"rod_1 [mm]"``."""
     key, kind = next(((k, v) for k, v in kinds.items() if v in ('length', 'angle')), ('x', 'length'))
     return f'"{key} [{"mm" if kind == "length" else "deg"}]"'
 
