@@ -328,3 +328,15 @@ def test_compensation_without_a_tool_is_that_of_the_platform_origin():
     np.testing.assert_array_equal(a.q, b.q)
     np.testing.assert_array_equal(a.tool_shift, b.tool_shift)
     np.testing.assert_array_equal(a.arm_correction_translation, b.arm_correction_translation)
+
+
+def test_a_rod_change_that_is_no_number_is_named_as_the_stroke_refusal_names_it():
+    """``dq[0] = inf`` beside ``q1 + dq1 = ... outside the stroke``: one element, named two ways (0- and 1-based)."""
+    from gpr_kinematics.core.mobility import analyze_mobility, rod_change
+    from gpr_kinematics.errors import InputError, LimitError
+    res = analyze_mobility([0.5, 0.5, 0.5])
+    with pytest.raises(InputError, match=r'dq = \[inf, 0\.0, 0\.0\] contains NaN or infinity: dq1 = inf is not a '
+                                         r'finite number'):
+        rod_change(res, [math.inf, 0.0, 0.0])
+    with pytest.raises(LimitError, match=r'^q1 \+ dq1 = '):
+        rod_change(res, [1.0, 0.0, 0.0])

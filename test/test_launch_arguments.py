@@ -92,6 +92,11 @@ def test_a_bool_is_read_as_launch_coerces_it(text, value):
     ('kinematics.launch.py', {'params_file': '/nonexistent/typo.yaml'},
      "params_file:='/nonexistent/typo.yaml' does not exist; allowed: an existing ROS parameters file"),
     ('replay.launch.xml', {'params_file': str(ROOT)}, 'is not a file; allowed: an existing ROS parameters file'),
+    # launch_ros refused these with an object's repr (namespace=<...LaunchConfiguration object at 0x...>)
+    ('offline_loop.launch.py', {'namespace': '1bad'}, "namespace:='1bad' is not a ROS namespace; allowed: empty, or "
+     'names of letters, digits and underscores (none starting with a digit) separated by single slashes, e.g. /r1'),
+    ('kinematics.launch.xml', {'namespace': '/r1/'}, "namespace:='/r1/' is not a ROS namespace"),
+    ('replay.launch.py', {'namespace': 'r-1'}, "namespace:='r-1' is not a ROS namespace"),
 ])
 def test_a_bad_argument_is_named_with_its_value_and_what_is_allowed(launch_file, args, words):
     name, _xml = launch_file_name(launch_file)
@@ -105,7 +110,9 @@ def test_a_bad_argument_is_named_with_its_value_and_what_is_allowed(launch_file,
     ('offline_loop.launch.py', {'rate': '1_000', 'mode': 'idle', 'model': 'compliant', 'frame_prefix': 'r1/'}),
     ('kinematics.launch.py', {'respawn': 'yes', 'use_sim_time': 'On'}),       # the Node's respawn: YAML 1.1
     ('kinematics.launch.xml', {'respawn': 'TRUE', 'use_sim_time': 'no'}),
-    ('replay.launch.py', {'rate': '1e6', 'loop': '1', 'bag': '', 'namespace': 'anything: left to the nodes'}),
+    ('replay.launch.py', {'rate': '1e6', 'loop': '1', 'bag': '', 'joint_states': 'anything: left to the nodes'}),
+    ('replay.launch.py', {'namespace': 'cell/r1'}), ('kinematics.launch.xml', {'namespace': '/r_1'}),
+    ('offline_loop.launch.py', {'namespace': ''}), ('offline_loop.launch.xml', {'namespace': '/'}),
 ])
 def test_what_launch_takes_passes(launch_file, args):
     name, _xml = launch_file_name(launch_file)

@@ -482,3 +482,34 @@ def test_a_second_state_publisher_with_the_same_frame_prefix_is_warned_of(ros_en
             p.stop()
     assert a.output().count('another publisher sends') == 1, a.output()
     assert 'another publisher sends' not in c.output(), c.output()
+
+
+def test_the_held_state_continues_the_time_base_of_the_joint_states(ros_environment):
+    """A replayed bag's joint_states carry the bag's stamps (a minute old): the held state between them was stamped
+    with the wall clock, so /tf jumped 64 s back and forth and tf2 (RViz) dropped the older data. It is stamped in the
+    joint_states' time base: their stamp plus the time since they arrived."""
+    from builtin_interfaces.msg import Time
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Header
+
+    names = ['rod_1', 'rod_2', 'rod_3']
+    from tf2_msgs.msg import TFMessage
+
+    with _joint_states_to('/tf_time_base', 't/', idle_rate=20.0) as (sp, c, pub, _):
+        tf = c.subscribe(TFMessage, '/tf')
+
+        def platform_stamps() -> list[float]:
+            return [t.header.stamp.sec + t.header.stamp.nanosec * 1e-9 for m in tf for t in m.transforms
+                    if t.child_frame_id == 't/gpr_platform']
+
+        now = c.node.get_clock().now().nanoseconds * 1e-9
+        old = now - 63.0
+        sec = int(old)
+        n = len(platform_stamps())
+        pub.publish(JointState(header=Header(stamp=Time(sec=sec, nanosec=0)), name=names, position=[0.3, 0.3, 0.3]))
+        assert c.spin_until(lambda: len(platform_stamps()) > n + 6, 10), sp.output()
+        stamps = platform_stamps()[n:]
+        assert stamps[0] == sec   # the sample itself at its stamp
+        held = stamps[1:]
+        assert all(sec < s < sec + 5.0 for s in held), (sec, held)   # not the wall clock's, 63 s later
+        assert held == sorted(held)

@@ -220,9 +220,9 @@ def finite_vector(values: Any, name: str, size: int) -> NDArray[np.float64]:
 
 
 def element(name: str, j: int) -> str:
-    """How a message names value ``j`` of ``name``: ``q2`` for rod 2 (numbered 1..3, like the paper's ``q1..q3``),
-    else ``name[j]``."""
-    return f'{name}{j + 1}' if name == 'q' else f'{name}[{j}]'
+    """How a message names value ``j`` of ``name``: ``q2`` for rod 2 and ``dq2`` for its change (numbered 1..3, like
+    the paper's ``q1..q3``; ``dq[0]`` read beside ``q1 + dq1``), else ``name[j]``."""
+    return f'{name}{j + 1}' if name in ('q', 'dq') else f'{name}[{j}]'
 
 
 def unit_quaternion(values: Any, name: str) -> NDArray[np.float64]:

@@ -13,13 +13,15 @@ and with spaces around; a ``bool`` (a bool parameter, the Node's ``respawn``: ``
 ``respawn`` in the Python files) takes what YAML 1.1 reads as a bool (``yes``, ``On``, ...) and 1 or 0; a
 ``number`` is what Python's ``float`` reads (the parameter's type), within the node parameter's range; a
 ``choice`` is one of the node parameter's choices; ``params_file`` an existing file; ``frame_prefix`` a frame
-prefix. The other arguments (paths, names) go to the nodes as text, which check them at start.
+prefix; ``namespace`` a ROS namespace. The other arguments (paths, names) go to the nodes as text, which check them
+at start.
 """
 from __future__ import annotations
 
 import difflib
 import math
 import os
+import re
 from collections.abc import Callable, Mapping
 
 import yaml
@@ -122,10 +124,25 @@ def _frame_prefix(_name: str, text: str, _launch_file: str) -> tuple[str, str] |
     return None if allowed is None else ('is not a frame prefix', allowed)
 
 
+#: A token of a ROS namespace (rmw's rule: letters, digits and underscores, not starting with a digit).
+_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')
+
+
+def _namespace(_name: str, text: str, _launch_file: str) -> tuple[str, str] | None:
+    """A node's namespace as launch_ros takes it (made absolute): ``namespace:=1bad`` was refused by launch_ros with an
+    object's repr (``namespace=<...LaunchConfiguration object at 0x...>``) after the argument checks."""
+    body = text[1:] if text.startswith('/') else text
+    if text in ('', '/') or all(_TOKEN.fullmatch(t) for t in body.split('/')):
+        return None
+    return ('is not a ROS namespace', 'empty, or names of letters, digits and underscores (none starting with a '
+            'digit) separated by single slashes, e.g. /r1 or cell/r1')
+
+
 Rule = Callable[[str, str, str], 'tuple[str, str] | None']
 #: The rule of each checked argument; ``respawn`` is a condition in the XML files (if/unless), a bool in Python.
 RULES: dict[str, Rule] = {
-    'params_file': _params_file, 'frame_prefix': _frame_prefix, 'model': _choice, 'mode': _choice,
+    'params_file': _params_file, 'frame_prefix': _frame_prefix, 'namespace': _namespace, 'model': _choice,
+    'mode': _choice,
     'rate': _number, 'flush_interval': _number, 'record': _condition, 'rviz': _condition, 'loop': _bool,
     'use_sim_time': _bool, 'respawn': _bool,
 }

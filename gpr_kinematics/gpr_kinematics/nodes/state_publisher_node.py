@@ -22,7 +22,9 @@ The state is held: the joints start at the robot's rest (equal rods at mid-strok
 robot simulator's state before its first goal) and keep the last value received (a value beyond its joint's
 limits, or rods beyond the stroke or the tilt limit, shown as received, as robot_state_publisher shows a measured
 state, with a warning at most every 5 s), and while no ``joint_states``
-arrive the held state is published again at ``idle_rate``, stamped with the current time, as ``joint_state_publisher``
+arrive the held state is published again at ``idle_rate``, stamped in the time base of the last ``joint_states``
+(its stamp plus the node clock's time since it arrived; the current time before any: a replayed bag's /tf had the
+bag's stamps and the wall clock's, 64 s apart, and tf2 drops data that old), as ``joint_state_publisher``
 keeps ``robot_state_publisher`` fed, and at once to a /tf subscription that matches meanwhile (a publisher-matched
 event): so ``/tf`` has the whole robot before the first motion, between motions and after the last, a listener
 getting it as soon as DDS discovery connects them (docs/ros.md, "tf at start-up"). ``frame_prefix`` (``r1/``)
@@ -118,6 +120,8 @@ class StatePublisherNode(GprNode):
         joint_states_subscription(self, self.on_joints, depth, p['joint_states_reliability'])
         self.received = 0
         self.last_received = -math.inf
+        #: The last joint_states' stamp and the node clock when it arrived [ns] (None: none yet).
+        self.time_base: tuple[int, int] | None = None
         self.idle_period = 1.0 / float(p['idle_rate'])
         self.platform_pose: tuple[Any, Any] | None = None
         self._pose_of(self.held[:3])
@@ -133,7 +137,7 @@ class StatePublisherNode(GprNode):
     def _on_matched(self, info: QoSPublisherMatchedInfo) -> None:
         """A new subscription of /tf matched: publish the held state now (between joint_states, as the idle timer)."""
         if info.current_count_change > 0 and time.monotonic() - self.last_received > 1.5 * self.idle_period:
-            self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
+            self.pub_tf.publish(self.transforms(self.held_stamp()))
 
     def _pose_of(self, rods: Any) -> None:
         """The exact and naive platform poses of ``rods`` (within :data:`~..inputs.validation.MAX_COORDINATE`: the
@@ -202,11 +206,22 @@ class StatePublisherNode(GprNode):
             self._pose_of(self.held[:3])
         self.received += 1
         self.last_received = time.monotonic()
-        self.pub_tf.publish(self.transforms(joints.header.stamp))
+        stamp = joints.header.stamp
+        self.time_base = (stamp.sec * 1_000_000_000 + stamp.nanosec, self.get_clock().now().nanoseconds)
+        self.pub_tf.publish(self.transforms(stamp))
+
+    def held_stamp(self) -> Any:
+        """The stamp of the held state: the last joint_states' plus the node clock's time since (at least 0: a clock
+        set back), the current time before any (module docstring)."""
+        now = self.get_clock().now()
+        if self.time_base is None:
+            return now.to_msg()
+        ns = self.time_base[0] + max(0, now.nanoseconds - self.time_base[1])
+        return make_message('builtin_interfaces/msg/Time', sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
     def _idle(self) -> None:
         if time.monotonic() - self.last_received > 1.5 * self.idle_period:
-            self.pub_tf.publish(self.transforms(self.get_clock().now().to_msg()))
+            self.pub_tf.publish(self.transforms(self.held_stamp()))
 
 
 def main(args: Sequence[str] | None = None) -> int:
