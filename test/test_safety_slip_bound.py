@@ -205,8 +205,8 @@ def test_the_bound_holds_random_joint_space_moves(jerk, peak):
 @pytest.mark.slow
 @pytest.mark.parametrize('jerk', [True, False])
 def test_the_bound_holds_more_random_joint_space_moves_at_100_khz(jerk):
-    """As above for four more seeds, scanned at 100 kHz throughout."""
-    for seed in (4, 5, 6, 7):
+    """As above for two more seeds, scanned at 100 kHz throughout (four took 22-28 s a run in CI)."""
+    for seed in (4, 6):
         _check_random(seed, jerk, 1e5)
 
 
