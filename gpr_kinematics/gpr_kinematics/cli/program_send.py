@@ -158,15 +158,16 @@ def _lead_in(args: argparse.Namespace, plan: ProgramPlan, traj: JointTrajectory,
         goal, start = lead_in(plan, traj, current, args.rate)
     except RobotStateError as exc:   # a start it cannot leave: no lead-in
         return traj, None, f'gpr program send: {exc}'
+    unsafe = ''
     try:
         lead_in_keeps_clearance(plan, goal, start)
     except RobotStateError as exc:   # the lead-in known (its --json said null while the line named it)
-        return goal, start, f'gpr program send: {exc}'
+        unsafe = f'gpr program send: {exc}'
     now, _ = _where_the_robot_is(tc, client, traj.joint_names, joint_states, args)
     off = np.zeros(1) if now is None else abs(now - current)
     k = int(off.argmax())
-    if not off[k] > MOVED:
-        return goal, start, ''
+    if not off[k] > MOVED:   # a moving robot first: its move from where it was is no move of where it is
+        return goal, start, unsafe
     joints = ControllerJoints.of(plan.robot)
     unit = joints.units[joints.names.index(traj.joint_names[k])]
     return goal, start, (f'gpr program send: the robot is moving: {traj.joint_names[k]} went {off[k]:.3g} {unit} '

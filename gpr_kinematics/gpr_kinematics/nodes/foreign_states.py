@@ -20,6 +20,11 @@ from ..robot.controller import ControllerJoints, beyond_words
 from .qos import latched_qos
 from .runtime import one_line
 
+#: The name the ROS graph gives a node not yet discovered, and how often (every 0.5 s) a warning naming the other
+#: publishers waits for it.
+UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'
+NAME_TRIES = 10
+
 #: Shortest time [s] between two warnings of one refusal (the same again; a different one is logged at once).
 REFUSAL_PERIOD = 5.0
 #: How often [s, steady time] the servers of the simulator's action are counted on the ROS graph.
@@ -111,14 +116,29 @@ class OtherFramePublishers:
                          and (t.child_frame_id, t.header.stamp.sec, t.header.stamp.nanosec) not in self.mine})
         if theirs and not self.warned:
             self.warned = True
-            me = (self.node.get_name(), self.node.get_namespace())
-            others = sorted({f'{e.node_namespace.rstrip("/")}/{e.node_name}'
-                             for e in self.node.get_publishers_info_by_topic(self.topic)
-                             if (e.node_name, e.node_namespace) != me})
-            named = ', '.join(theirs[:3]) + (f' and {len(theirs) - 3} more' if len(theirs) > 3 else '')
-            self.node.get_logger().warning(
-                f'another publisher sends this robot\'s frames ({named}) on {self.topic} (of its publishers: '
-                f'{", ".join(others) or "one gone since"}): a second state publisher with the same frame_prefix, or '
-                'a replayed recording of them; tf takes either, and /tf alternates between two robots; allowed: '
-                'one state publisher per frame_prefix (give each robot its own, e.g. frame_prefix:=r2/)')
+            self._warn(theirs, NAME_TRIES)
         return theirs
+
+    def _warn(self, theirs: list[str], tries: int) -> None:
+        """The warning naming the other publishers; while the graph names one ``_NODE_NAME_UNKNOWN_`` (its node's
+        discovery behind its publisher's: the twin went unnamed on a loaded machine), again every 0.5 s, ``tries``
+        times at most."""
+        me = (self.node.get_name(), self.node.get_namespace())
+        infos = [e for e in self.node.get_publishers_info_by_topic(self.topic) if (e.node_name, e.node_namespace) != me]
+        if tries > 0 and any(e.node_name == UNKNOWN_NODE for e in infos):
+            timer = None
+
+            def again() -> None:
+                if timer is not None:
+                    timer.cancel()
+                    self.node.destroy_timer(timer)
+                self._warn(theirs, tries - 1)
+            timer = self.node.create_timer(0.5, again)
+            return
+        others = sorted({f'{e.node_namespace.rstrip("/")}/{e.node_name}' for e in infos})
+        named = ', '.join(theirs[:3]) + (f' and {len(theirs) - 3} more' if len(theirs) > 3 else '')
+        self.node.get_logger().warning(
+            f'another publisher sends this robot\'s frames ({named}) on {self.topic} (of its publishers: '
+            f'{", ".join(others) or "one gone since"}): a second state publisher with the same frame_prefix, or '
+            'a replayed recording of them; tf takes either, and /tf alternates between two robots; allowed: '
+            'one state publisher per frame_prefix (give each robot its own, e.g. frame_prefix:=r2/)')
