@@ -410,10 +410,11 @@ def typed_tilt(args: argparse.Namespace, option: str, value: float, typed: float
     raise LimitError(f'{option} = {beyond_tilt(value, config.tilt_limit, allowed)}{DEGREES_HINT if degrees else ""}')
 
 
-def robot_options(p: argparse.ArgumentParser, program: bool = False) -> None:
+def robot_options(p: argparse.ArgumentParser, program: bool = False, cell: bool = False) -> None:
     """``--robot``, ``--config``, ``--model`` and ``--json``; ``program``: of a program's command, whose robot is the
-    program's own by default (the help said the packaged example's), and ``export``'s and ``send``'s ``--cell``."""
-    if program and p.prog.split()[-1] in ('export', 'send'):
+    program's own by default (the help said the packaged example's); ``cell``: ``export``'s and ``send``'s ``--cell``
+    (``check`` has its own)."""
+    if cell:
         p.add_argument('--cell', metavar='FILE', type=shipped(CELLS), dest='cell_override',
                        help="the process cell the program is checked in (default: the program's cell, else none), as "
                        "gpr program check --cell")

@@ -285,6 +285,6 @@ def register(sub: Any) -> None:
     p.add_argument('--rate', type=number, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
     p.add_argument('--force', action='store_true', help='write the tables (not a trajectory) of a program check '
                    'finds not safe, for analysis (status 1)')
-    robot_options(p, program=True)
+    robot_options(p, program=True, cell=True)
     p.set_defaults(handler=_cmd_export)
     send_parser(psub)

@@ -281,5 +281,5 @@ def send_parser(psub: Subparsers) -> None:
     p.add_argument('--timeout', type=number, default=10.0,
                    help='longest wait [s] for the server, the joint states, and the result after the end (default 10)')
     p.add_argument('--progress', type=number, default=1.0, help='seconds between progress lines (default 1)')
-    robot_options(p, program=True)
+    robot_options(p, program=True, cell=True)
     p.set_defaults(handler=_cmd_send)
