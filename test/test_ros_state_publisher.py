@@ -465,20 +465,28 @@ def test_a_second_state_publisher_with_the_same_frame_prefix_is_warned_of(ros_en
     on the same frames, and tf alternated between them without a word: each now warns once that another publisher
     sends its frames on /tf_static, naming it; one with a prefix of its own does not
     (nodes/foreign_states.OtherFramePublishers)."""
-    a = start('state_publisher_node', namespace='/sp_twin_a', frame_prefix='twin/')
-    b = start('state_publisher_node', namespace='/sp_twin_b', frame_prefix='twin/')
+    # c and a first, b once a has seen c for 3 s: a names every publisher it knows, c among them (started together,
+    # a warned before it had discovered c on a loaded machine, and named two stale nodes of earlier tests instead)
     c = start('state_publisher_node', namespace='/sp_single', frame_prefix='single/')
+    a = start('state_publisher_node', namespace='/sp_twin_a', frame_prefix='twin/')
+    procs = [c, a]
     try:
+        for p in procs:
+            wait_for_log(p, r'publishing robot_description')
+        time.sleep(3.0)
+        b = start('state_publisher_node', namespace='/sp_twin_b', frame_prefix='twin/')
+        procs.append(b)
+        named = {}
         for p, other in ((a, '/sp_twin_b'), (b, '/sp_twin_a')):
             m = wait_for_log(p, r"another publisher sends this robot's frames \((twin/[^)]*)\) on /tf_static \(of "
                                 r'its publishers: ([^)]*)\): a second state publisher with the same frame_prefix',
                              timeout=60)
-            assert m.group(1).startswith('twin/') and f'{other}/state_publisher_node' in m.group(2).split(', '), m[0]
-            assert '/sp_single/state_publisher_node' in m.group(2).split(', ')   # every other publisher is named
-        wait_for_log(c, r'publishing robot_description')
-        time.sleep(2.0)   # a and b found c as a publisher: c had their latched transforms in the same while
+            named[other] = m.group(2).split(', ')
+            assert m.group(1).startswith('twin/') and f'{other}/state_publisher_node' in named[other], m[0]
+        assert '/sp_single/state_publisher_node' in named['/sp_twin_b'], named   # every other publisher is named
+        time.sleep(2.0)   # c heard b's latched transforms in the same while
     finally:
-        for p in (a, b, c):
+        for p in procs:
             p.stop()
     assert a.output().count('another publisher sends') == 1, a.output()
     assert 'another publisher sends' not in c.output(), c.output()
