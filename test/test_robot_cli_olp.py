@@ -4,6 +4,7 @@ metres in a station file in millimetres blamed on the heights, a pair below the 
 first alone."""
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -139,3 +140,29 @@ def test_export_and_send_check_in_the_cell_given_as_check_does(capsys, tmp_path)
     status, _, err = run(capsys, 'program', 'export', program, '--samples', str(tmp_path / 's.csv'), '--cell',
                          str(tmp_path / 'none.yaml'))
     assert status == 2 and 'none.yaml' in err and not (tmp_path / 's.csv').exists()
+
+
+@pytest.mark.slow
+def test_export_and_send_keep_the_margin_given_as_check_does(capsys, tmp_path):
+    """``--margin`` was check's alone: a program checked at 7 mm was exported and sent at the 2 mm default. The
+    example cell program comes to 6.090 mm (arm2_link3 and pm1/front_bottom): export refuses it at 7 mm, naming the
+    margin and the check that shows it, writes it at 6 mm; a margin typed in mm is refused before any work, by send
+    too (before it looks for a robot)."""
+    cell_program = config_path('programs/example_cell_program.yaml')
+    status, out, _ = run(capsys, 'program', 'check', str(cell_program), '--no-progress', '--json')
+    least = json.loads(out)['min_clearance']
+    assert 0.006 < least < 0.007
+    for option in ('--trajectory', '--waypoints'):
+        path = tmp_path / ('t.yaml' if option == '--trajectory' else 'w.csv')
+        status, _, err = run(capsys, 'program', 'export', str(cell_program), option, str(path), '--margin', '0.007')
+        assert status == 1 and not path.exists(), err
+        assert (f'arm2_link3 and pm1/front_bottom come to {least * 1000:.3f} mm' in err
+                and 'within the margin of 7 mm' in err and 'a program gpr program check --margin 0.007 finds safe'
+                in err), err
+        status, _, err = run(capsys, 'program', 'export', str(cell_program), option, str(path), '--margin', '0.006')
+        assert status == 0 and path.exists(), err
+    for command in ('export', 'send'):
+        extra = ('--waypoints', str(tmp_path / 'x.csv')) if command == 'export' else ()
+        status, out, err = run(capsys, 'program', command, str(cell_program), *extra, '--margin', '5')
+        assert (status, out) == (2, '') and err == (f'gpr program {command}: error: margin = 5.0 is invalid; allowed: '
+                                                    'metres, at least 0 and at most 1 (5 mm? give 0.005)\n'), err

@@ -989,8 +989,9 @@ def test_margin_help_prints_the_default_the_check_uses(tmp_path):
     from gpr_kinematics.safety import check, clearance, margin
     for function in (clearance.clearance, check.check_program):
         assert inspect.signature(function).parameters['margin'].default == margin.MARGIN
-    res = gpr('program', 'check', '--help', cwd=tmp_path)
-    assert f'(default {margin.MARGIN:g})' in ' '.join(res.stdout.split())
+    for command in ('check', 'export', 'send'):   # export's and send's too (theirs was fixed at the default)
+        res = gpr('program', command, '--help', cwd=tmp_path)
+        assert f'(default {margin.MARGIN:g}; 0 to 1)' in ' '.join(res.stdout.split()), command
 
 
 def test_a_check_of_something_else_than_a_plan_and_a_cell_is_named():

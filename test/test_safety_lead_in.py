@@ -70,6 +70,21 @@ def test_a_move_clear_of_the_cell_and_no_move_at_all_pass(t):
     assert not GoalClearance(PLAN.robot, load_cell(CELL_FILE)).line(current, TRAJ.positions[0]).below_margin
 
 
+def test_the_move_keeps_the_margin_it_is_given():
+    """``send --margin``: the move from an instant with the arm retracted, whose least distance the refusal at 1 m
+    names (a lower bound within its tolerance: 5 % of its excess over 20 mm), passes 10 um below it and is refused
+    5 mm above it, naming the margin."""
+    from gpr_kinematics.cli.program_trajectory import lead_in_keeps_clearance
+
+    goal, start = lead_in(PLAN, TRAJ, _state_at(30.0), RATE)
+    with pytest.raises(RobotStateError, match='within the margin of 1000 mm') as exc:
+        lead_in_keeps_clearance(PLAN, goal, start, 1.0)
+    least = float(re.search(r'come to ([\d.]+) mm', str(exc.value))[1]) / 1000.0
+    assert 0.002 < least < 1.0
+    lead_in_keeps_clearance(PLAN, goal, start, least - 1e-5)
+    with pytest.raises(RobotStateError, match=rf'within the margin of {(least + 0.005) * 1000:g} mm'):
+        lead_in_keeps_clearance(PLAN, goal, start, least + 0.005)
+
 def test_the_wafers_are_taken_as_at_the_programs_start_throughout():
     """The example program starts with its wafer lying at load_port_1 and both blades empty: that wafer lies there
     for the whole move, the wafers the program places later are not there, and no arm carries one."""

@@ -23,11 +23,11 @@ from typing import TYPE_CHECKING, Any
 from ..errors import InputError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
-from ..safety.margin import MARGIN, STREAM_RATE
+from ..safety.margin import STREAM_RATE
 from .options import named_file, number, png_plot, program_plan, robot_options, sample_rate, shipped
 from .output import JsonValue, emit_json
 from .program_send import send_parser
-from .program_trajectory import SLIP_HELPS, as_a_controller_takes_it, the_program_is_safe
+from .program_trajectory import SLIP_HELPS, add_margin, as_a_controller_takes_it, margin_of, the_program_is_safe
 from .progress import add_no_progress, progress_line
 
 if TYPE_CHECKING:
@@ -57,7 +57,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from ..safety.check import check_program
     if args.plot is not None:
         png_plot(args.plot)
-    margin = MARGIN if args.margin is None else args.margin
+    margin = margin_of(args)
     sample_rate(args.rate)   # before the program is planned
     program, plan = program_plan(args)
     path = named_file(program, 'cell', args.cell)
@@ -176,6 +176,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     for path in (args.waypoints, args.samples):
         if path is not None:  # refused before the program is planned
             check_table_path(path)
+    margin_of(args)
     at_rate = args.samples is not None or args.trajectory is not None
     sample_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
     _check_trajectory_output(args)
@@ -219,7 +220,7 @@ def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any) -> str:
     if args.trajectory is not None:
         return ''
     try:
-        the_program_is_safe(plan, args.rate, 'export')
+        the_program_is_safe(plan, args.rate, 'export', margin_of(args))
     except UnsafeError as exc:
         if not args.force:
             raise UnsafeError(f'{exc}; --force writes the tables anyway, for analysis (status 1)') from None
@@ -246,7 +247,8 @@ def _export_trajectory(args: argparse.Namespace, plan: Any) -> dict[str, Any]:
         return {}
     from ..robot.trajectory import program_trajectory, write_trajectory
     traj = program_trajectory(plan, args.rate)
-    as_a_controller_takes_it(plan, traj, args.rate, 'export')   # in the program's time (its wafers' windows)
+    # in the program's time (its wafers' windows)
+    as_a_controller_takes_it(plan, traj, args.rate, 'export', margin_of(args))
     traj = traj.shifted(args.lead_in)
     return {'trajectory_file': write_trajectory(args.trajectory, traj), 'trajectory_points': len(traj),
             'trajectory_duration': traj.duration}
@@ -263,8 +265,7 @@ def register(sub: Any) -> None:
     p.add_argument('program', metavar='PROGRAM', type=shipped(PROGRAMS), help='robot program YAML file')
     p.add_argument('--cell', metavar='FILE', type=shipped(CELLS),
                    help='the process cell (default: the program\'s cell, else none)')
-    p.add_argument('--margin', type=number, default=None, metavar='M',
-                   help=f'clearance below which a pair collides [m] (default {MARGIN:g})')
+    add_margin(p, 'the cell and against the robot itself')
     p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
     p.add_argument('--rate', type=number, default=STREAM_RATE, help='the rate of the stream whose samples the '
                    f'imperfection budget is judged at [Hz] (trajectory_node\'s rate; default {STREAM_RATE:g}; 0.1 to '
@@ -285,6 +286,7 @@ def register(sub: Any) -> None:
     p.add_argument('--rate', type=number, default=100.0, help='sample rate [Hz] (default 100; 0.1 to 5000)')
     p.add_argument('--force', action='store_true', help='write the tables (not a trajectory) of a program check '
                    'finds not safe, for analysis (status 1)')
+    add_margin(p, 'the program and its trajectory')
     robot_options(p, program=True, cell=True)
     p.set_defaults(handler=_cmd_export)
     send_parser(psub)

@@ -26,7 +26,7 @@ from ..errors import InputError, RobotStateError, UnsafeError
 from ..inputs.resources import PROGRAMS
 from .options import number, program_plan, robot_options, sample_rate, shipped
 from .output import emit_json
-from .program_trajectory import as_a_controller_takes_it, lead_in_keeps_clearance
+from .program_trajectory import add_margin, as_a_controller_takes_it, lead_in_keeps_clearance, margin_of
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -160,7 +160,7 @@ def _lead_in(args: argparse.Namespace, plan: ProgramPlan, traj: JointTrajectory,
         return traj, None, f'gpr program send: {exc}'
     unsafe = ''
     try:
-        lead_in_keeps_clearance(plan, goal, start)
+        lead_in_keeps_clearance(plan, goal, start, margin_of(args))
     except RobotStateError as exc:   # the lead-in known (its --json said null while the line named it)
         unsafe = f'gpr program send: {exc}'
     now, _ = _where_the_robot_is(tc, client, traj.joint_names, joint_states, args)
@@ -187,12 +187,14 @@ def _failed(args: argparse.Namespace, plan: ProgramPlan, action: str, traj: Join
 
 
 def _check_times(args: argparse.Namespace) -> None:
-    """``--timeout``, ``--progress`` and ``--rate`` within their bounds (:class:`~gpr_kinematics.errors.InputError`)."""
+    """``--timeout``, ``--progress``, ``--rate`` and ``--margin`` within their bounds
+    (:class:`~gpr_kinematics.errors.InputError`)."""
     if not 0.0 < args.timeout <= 3600.0:
         raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
     if not 0.0 < args.progress <= 3600.0:  # NaN printed nothing, 0 or less a line per feedback
         raise InputError(f'--progress = {args.progress!r} s; allowed: 0 < progress <= 3600 s')
     sample_rate(args.rate)
+    margin_of(args)
 
 
 def _refused_as_unsafe(args: argparse.Namespace, plan: ProgramPlan, traj: JointTrajectory, exc: UnsafeError) -> int:
@@ -220,7 +222,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
     _, plan = program_plan(args, args.rate)
     traj = program_trajectory(plan, args.rate)
     try:
-        as_a_controller_takes_it(plan, traj, args.rate, 'send')
+        as_a_controller_takes_it(plan, traj, args.rate, 'send', margin_of(args))
     except UnsafeError as exc:
         if not args.json:
             raise
@@ -281,5 +283,6 @@ def send_parser(psub: Subparsers) -> None:
     p.add_argument('--timeout', type=number, default=10.0,
                    help='longest wait [s] for the server, the joint states, and the result after the end (default 10)')
     p.add_argument('--progress', type=number, default=1.0, help='seconds between progress lines (default 1)')
+    add_margin(p, 'the program, its trajectory and the move to its start')
     robot_options(p, program=True, cell=True)
     p.set_defaults(handler=_cmd_send)

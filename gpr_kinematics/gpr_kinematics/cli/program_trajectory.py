@@ -5,6 +5,7 @@ refused as it is (:class:`~gpr_kinematics.errors.UnsafeError`, status 1, as the 
 ``--rate`` where a higher one helps is bad input (:class:`~gpr_kinematics.errors.InputError`, status 2)."""
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from collections.abc import Sequence
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from ..errors import InputError, UnsafeError
 from ..safety.margin import MARGIN
+from .options import number
 
 if TYPE_CHECKING:
     from ..robot.controller import Motion
@@ -28,16 +30,32 @@ SLIP_HELPS = ("the ratio is lowered by a longer 'time' on that step, lower accel
 CONTROLLER_RATE = 100.0
 
 
-def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: float, command: str) -> None:
+def add_margin(p: argparse.ArgumentParser, what: str) -> None:
+    """``--margin M`` on ``p``: the clearance [m] below which a pair of bodies collides in ``what``."""
+    p.add_argument('--margin', type=number, default=None, metavar='M',
+                   help=f'clearance below which a pair collides in {what} [m] (default {MARGIN:g}; 0 to 1)')
+
+
+def margin_of(args: argparse.Namespace) -> float:
+    """``--margin`` [m] (:data:`MARGIN` when not given), refused before any work outside [0, 1] m
+    (:func:`~gpr_kinematics.safety.clearance.check_numbers`, which names a margin typed in mm)."""
+    from ..safety.clearance import BASE_RATE, TOLERANCE, check_numbers
+    margin = MARGIN if args.margin is None else args.margin
+    check_numbers(margin, TOLERANCE, BASE_RATE)
+    return float(margin)
+
+
+def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: float, command: str,
+                             margin: float = MARGIN) -> None:
     """Refuse a trajectory at ``--rate`` whose spline between points is not the checked program: one
     ``robot_simulator_node`` would refuse (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point,
     sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: a warning
     then says the node needs a lower ``rate``), one whose spline comes within the clearance margin in the program's
     cell or against the robot itself (:func:`~gpr_kinematics.safety.check.trajectory_clearance`), makes a wafer slip
-    or leaves the program by more than :data:`DEVIATION_ALLOWED`. The cubic between points a few per
-    second apart overshoots the program's velocities (the example cell program's rod_1 by 1.05 % at 5 Hz, beyond the
-    1 % a controller allows), and at 0.3 Hz put arm2's blade 8.7 mm into a chamber's wall: such files were written,
-    or sent."""
+    or leaves the program by more than :data:`DEVIATION_ALLOWED` (``margin`` [m]: the clearance's, ``--margin``).
+    The cubic between points a few per second apart overshoots the program's velocities (the example cell program's
+    rod_1 by 1.05 % at 5 Hz, beyond the 1 % a controller allows), and at 0.3 Hz put arm2's blade 8.7 mm into a
+    chamber's wall: such files were written, or sent."""
     from ..robot.controller import ControllerJoints, GoalError, Tolerances, plan_motion
     from ..robot.timing import MAX_SAMPLES
     joints = ControllerJoints.of(plan.robot)
@@ -51,8 +69,8 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
     except GoalError as exc:
         raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
                          'more points)') from None
-    if the_program_is_safe(plan, rate, command):
-        _keeps_the_clearance(plan, plan.program.cell, traj, rate)
+    if the_program_is_safe(plan, rate, command, margin):
+        _keeps_the_clearance(plan, plan.program.cell, traj, rate, margin)
     _holds_the_wafers(plan, traj, rate)
     _follows_the_program(plan, motion, joints.names, rate)
     if traj.duration > longest:
@@ -62,7 +80,7 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
               f'(at most {(MAX_SAMPLES - 1) / traj.duration:.6g} Hz)', file=sys.stderr)
 
 
-def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
+def the_program_is_safe(plan: ProgramPlan, rate: float, command: str, margin: float = MARGIN) -> bool:
     """Refuse (:class:`~gpr_kinematics.errors.UnsafeError`, status 1) a program ``gpr program check`` finds not safe
     (:func:`~gpr_kinematics.safety.check.check_program`: the clearance in its cell or against itself, the wafers'
     slip, the imperfection budget at ``rate``), naming the first reason: a program whose wafer slipped (ratio 2.26 at
@@ -74,14 +92,14 @@ def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
     where = f'in cell {cell}' if cell is not None else 'against itself (no cell)'
     fcl = _has_fcl(where, command, 'the program and its trajectory')
     loaded = None if cell is None else load_cell(cell)
-    report, clear, _ = check_program(plan, loaded, MARGIN, rate=rate, with_clearance=fcl)
+    report, clear, _ = check_program(plan, loaded, margin, rate=rate, with_clearance=fcl)
     if report.safe:
         return fcl
     if report.collisions:
         from ..safety.check import program_clearance
-        p = _least(program_clearance(plan, loaded, MARGIN, decide=False, only=_names(clear)))
+        p = _least(program_clearance(plan, loaded, margin, decide=False, only=_names(clear)))
         first = min(report.collisions, key=lambda c: c.time)
-        why = (f' {where}: {_pair(p, plan)}, within the margin of {MARGIN * 1000:g} mm ({len(report.collisions)} '
+        why = (f' {where}: {_pair(p, plan)}, within the margin of {margin * 1000:g} mm ({len(report.collisions)} '
                f'pair(s) below it, the first {" and ".join(first.bodies)} at t = {first.time:.3f} s, {first.label})')
     elif report.max_slip_ratio >= 1.0:
         ratio = report.max_slip_evaluated
@@ -95,11 +113,13 @@ def the_program_is_safe(plan: ProgramPlan, rate: float, command: str) -> bool:
         why = (f': {sum(f.samples for f in b.beyond)} sample(s) at {b.rate:g} Hz beyond the imperfection budget of '
                f'{b.budget * 1e6:g} um (the largest joint displacement {b.max_displacement * 1e6:.3f} um at '
                f'{b.max_at:.3f} s, {b.max_label})')
+    check = 'gpr program check' + (f' --margin {margin:g}' if margin != MARGIN else '')
     raise UnsafeError(f'the program itself is not safe{why} (no --rate helps); '
-                      'allowed: a program gpr program check finds safe (it names every pair and move)')
+                      f'allowed: a program {check} finds safe (it names every pair and move)')
 
 
-def _keeps_the_clearance(plan: ProgramPlan, cell: Path | None, traj: JointTrajectory, rate: float) -> None:
+def _keeps_the_clearance(plan: ProgramPlan, cell: Path | None, traj: JointTrajectory, rate: float,
+                         margin: float) -> None:
     """Refuse ``traj`` (the program at ``--rate``, which :func:`the_program_is_safe` passed) whose spline comes within
     the clearance margin in the program's ``cell`` file, or against itself without one (its arms, the column, the
     platform: :func:`~gpr_kinematics.safety.check.trajectory_clearance`): a higher rate helps (python-fcl needed:
@@ -108,13 +128,13 @@ def _keeps_the_clearance(plan: ProgramPlan, cell: Path | None, traj: JointTrajec
     from ..safety.cell import load_cell
     from ..safety.check import trajectory_clearance
     loaded = None if cell is None else load_cell(cell)
-    report = trajectory_clearance(plan, loaded, traj, MARGIN)
+    report = trajectory_clearance(plan, loaded, traj, margin)
     if not report.below_margin:
         return
-    p = _least(trajectory_clearance(plan, loaded, traj, MARGIN, decide=False, only=_names(report)))
+    p = _least(trajectory_clearance(plan, loaded, traj, margin, decide=False, only=_names(report)))
     where = f'in cell {cell}' if cell is not None else 'against the robot itself (no cell)'
     raise InputError(f'at --rate {rate:g} Hz the spline between the trajectory\'s points leaves the checked '
-                     f'program: {_pair(p, plan)}, within the margin of {MARGIN * 1000:g} mm {where} (the program '
+                     f'program: {_pair(p, plan)}, within the margin of {margin * 1000:g} mm {where} (the program '
                      'itself keeps it); allowed: a higher --rate (points closer together follow the program)')
 
 
@@ -131,7 +151,7 @@ def _holds_the_wafers(plan: ProgramPlan, traj: JointTrajectory, rate: float) -> 
                          'itself stays below 1); allowed: a higher --rate (points closer together follow the program)')
 
 
-def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: float) -> None:
+def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: float, margin: float = MARGIN) -> None:
     """Refuse (:class:`~gpr_kinematics.errors.RobotStateError`: the robot's state, status 1) a ``goal`` whose move
     from where the robot is to the program's start (its first ``start`` s, :func:`~gpr_kinematics.robot.trajectory.
     lead_in`) comes within the clearance margin in the program's cell
@@ -152,13 +172,13 @@ def lead_in_keeps_clearance(plan: ProgramPlan, goal: JointTrajectory, start: flo
                            None if goal.velocities is None else goal.velocities[:n],
                            None if goal.accelerations is None else goal.accelerations[:n])
     loaded = None if cell is None else load_cell(cell)
-    report = lead_in_clearance(plan, loaded, lead, MARGIN)
+    report = lead_in_clearance(plan, loaded, lead, margin)
     if report.below_margin:
         names = _names(report)
-        p = _least(lead_in_clearance(plan, loaded, lead, MARGIN, decide=False, only=names))
+        p = _least(lead_in_clearance(plan, loaded, lead, margin, decide=False, only=names))
         raise RobotStateError(f'the move from where the robot is to the program\'s start ({start:.3f} s, added by '
                               f'send) is not safe {where}: {_pair(p)} of the move, within the margin of '
-                              f'{MARGIN * 1000:g} mm; allowed: a robot whose joint-space line to the program\'s first '
+                              f'{margin * 1000:g} mm; allowed: a robot whose joint-space line to the program\'s first '
                               'point keeps the margin (move it clear first, or start the program where it is)')
 
 
