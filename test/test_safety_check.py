@@ -277,6 +277,8 @@ def test_tenfold_arm_accelerations_make_the_wafer_slip(tmp_path, fast_robot):
               '1000', '--force', cwd=tmp_path)   # written for this analysis, status 1, the reason on stderr
     assert res.returncode == 1 and res.stderr.startswith('gpr program export: warning: the program itself is not '
                                                          'safe: the wafer slips on the blade'), res.stderr
+    assert 'allowed:' not in res.stderr and res.stderr.endswith(   # the refusal's 'allowed:' is no warning's
+        ' (no --rate helps); the tables were written as --force asks, for analysis, not for a controller\n'), res.stderr
     with csv_path.open() as f:
         rows = [r for r in csv.DictReader(f)]
     t = np.array([float(r['time']) for r in rows])

@@ -224,7 +224,7 @@ def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any) -> str:
     except UnsafeError as exc:
         if not args.force:
             raise UnsafeError(f'{exc}; --force writes the tables anyway, for analysis (status 1)') from None
-        return str(exc)
+        return str(exc).rsplit('; allowed: ', 1)[0]   # the reason: what is allowed is the refusal's, not the warning's
     return ''
 
 
