@@ -556,6 +556,37 @@ def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
     assert got == (ref * (len(got) // len(ref) + 1))[:len(got)]
 
 
+def test_clock_rate_publishes_the_bags_time_on_clock() -> None:
+    """Nodes with use_sim_time had no /clock from a replay (``ros2 bag play --clock`` gives one): with
+    ``clock_rate`` 50 at ``rate`` 2 it publishes the bag's log time about every 20 ms, 40 ms of the bag apart, from
+    the first message's time on, never back, and not past the last message's (no loop)."""
+    from gpr_kinematics.nodes.client import GprClient
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
+
+    from gpr_interfaces.msg import PlatformState
+
+    log_time = read_bag(REFERENCE).topic(STATE).log_time
+    first, last = int(log_time[0]), int(log_time[-1])
+    replay = start('replay_node', bag=REFERENCE, rate=2.0, clock_rate=50.0, topics='[gpr/platform_state]',
+                   wait_for_subscribers=1)
+    try:
+        with GprClient('gpr_test_replay_clock') as c:
+            ticks: list[int] = []
+            c.node.create_subscription(Clock, '/clock', lambda m: ticks.append(m.clock.sec * 10 ** 9 + m.clock.nanosec),
+                                       QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT))
+            states = c.subscribe(PlatformState, STATE)
+            assert c.spin_until(lambda: len(states) == len(log_time), 30), (len(states), replay.output())
+            c.spin_for(0.5)
+        assert replay.wait(15) == 0, replay.output()
+    finally:
+        replay.stop()
+    steps = np.diff(ticks)
+    assert len(ticks) >= 25 and np.all(steps >= 0), ticks
+    assert first <= ticks[0] <= first + 100_000_000 and ticks[-1] <= last + 100_000_000, (first, ticks, last)
+    assert 30e6 <= np.median(steps) <= 50e6, np.median(steps)   # 20 ms apart, the bag at twice its speed
+
+
 @pytest.mark.slow
 def test_a_looped_one_message_bag_repeats_at_ten_hertz_and_the_node_serves(tmp_path: Path) -> None:
     """A bag of one message looped at about 1,200 messages/s and its parameter services went unanswered: passes

@@ -25,7 +25,7 @@ PIP_ONLY = {'lz4': 'lz4', 'dask': 'dask', 'distributed': 'distributed', 'fcl': '
 ROSDEP_KEYS = set(ROSDEP.values()) | {'python3-pytest', 'python3-hypothesis', 'python3-yourdfpy-pip'}
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'builtin_interfaces', 'action_msgs', 'std_msgs', 'geometry_msgs',
                 'sensor_msgs', 'visualization_msgs', 'tf2_msgs', 'trajectory_msgs', 'control_msgs', 'gpr_interfaces',
-                'ament_index_python', 'launch', 'launch_ros'}
+                'ament_index_python', 'launch', 'launch_ros', 'rosgraph_msgs'}
 
 
 def imported_modules() -> dict[str, set[str]]:

@@ -2,11 +2,12 @@
 joint_states into /tf), optionally into RViz.
 
     ros2 launch gpr_kinematics replay.launch.py bag:=bags/run1 [rate:=2.0] [loop:=true] [robot:=my_robot.yaml]
-        [model:=polar] [rviz:=true] [joint_states:=gpr/joint_states]
+        [model:=polar] [rviz:=true] [joint_states:=gpr/joint_states] [clock_rate:=50.0 use_sim_time:=true]
 
 The replay waits (up to 10 s) until the state publisher subscribes to the joint states, so /tf shows the bag from
 its first sample; ``model`` is the recording's virtual-joint model (the state publisher's /tf used the geometry's,
-28 um from the replayed platform pose of a bag recorded under another).
+28 um from the replayed platform pose of a bag recorded under another). ``clock_rate`` publishes /clock with the
+bag's time (as ``ros2 bag play --clock``): with ``use_sim_time:=true`` the nodes then run on the bag's time.
 """
 from gpr_kinematics.nodes.launch_common import arguments, node, rviz, typed
 from launch import LaunchDescription
@@ -16,6 +17,7 @@ ARGUMENTS = (
     ('bag', '', 'bag folder, .mcap or .db3 file to replay (required)'),
     ('rate', '1.0', 'replay speed factor (2.0: twice as fast)'),
     ('loop', 'false', 'start over at the end of the bag (true/false)'),
+    ('clock_rate', '0.0', "publish /clock with the bag's time at this rate [Hz] (for use_sim_time; 0: none)"),
     ('namespace', '', 'namespace of the nodes and the replayed topics, e.g. /robot1'),
     ('frame_prefix', '', "prefix of every tf frame (robot_state_publisher's frame_prefix), e.g. r1/"),
     ('joint_states', 'joint_states', 'the topic of the joint states in the bag (gpr/joint_states in bags recorded '
@@ -37,6 +39,7 @@ def generate_launch_description() -> LaunchDescription:
                                        'model': typed('model'), 'frame_prefix': typed('frame_prefix')}],
              remappings=[('joint_states', LaunchConfiguration('joint_states'))]),
         node('replay_node', [{'bag': typed('bag'), 'rate': typed('rate', float), 'loop': typed('loop', bool),
+                              'clock_rate': typed('clock_rate', float),
                               'wait_for_subscribers': 1, 'wait_topic': typed('joint_states')}]),
         rviz(),
     ])

@@ -37,14 +37,14 @@ FILES: dict[str, tuple[str, ...]] = {
     'offline_loop': ('params_file', 'namespace', 'frame_prefix', 'config_file', 'model', 'robot', 'mode',
                      'program_file', 'rate', 'record', 'bag', 'flush_interval', 'rviz', 'cell', 'use_sim_time',
                      'respawn'),
-    'replay': ('params_file', 'bag', 'rate', 'loop', 'namespace', 'frame_prefix', 'joint_states', 'config_file',
-               'model', 'robot', 'rviz', 'use_sim_time', 'respawn'),
+    'replay': ('params_file', 'bag', 'rate', 'loop', 'clock_rate', 'namespace', 'frame_prefix', 'joint_states',
+               'config_file', 'model', 'robot', 'rviz', 'use_sim_time', 'respawn'),
     'two_robots': ('mode', 'program_file', 'robot', 'rviz', 'cell', 'use_sim_time', 'respawn'),
 }
 #: The node whose parameter of the argument's name gives a number's range or a choice's choices (per launch file
 #: where it differs).
 PARAMETER_OF: dict[str, str | dict[str, str]] = {
-    'rate': {'offline_loop': 'trajectory_node', 'replay': 'replay_node'},
+    'rate': {'offline_loop': 'trajectory_node', 'replay': 'replay_node'}, 'clock_rate': 'replay_node',
     'flush_interval': 'recorder_node', 'mode': 'trajectory_node', 'model': 'kinematics_node',
 }
 #: What a condition (``launch.conditions``) takes, after ``strip().lower()``.
@@ -142,8 +142,8 @@ Rule = Callable[[str, str, str], 'tuple[str, str] | None']
 #: The rule of each checked argument; ``respawn`` is a condition in the XML files (if/unless), a bool in Python.
 RULES: dict[str, Rule] = {
     'params_file': _params_file, 'frame_prefix': _frame_prefix, 'namespace': _namespace, 'model': _choice,
-    'mode': _choice,
-    'rate': _number, 'flush_interval': _number, 'record': _condition, 'rviz': _condition, 'loop': _bool,
+    'mode': _choice, 'rate': _number, 'clock_rate': _number, 'flush_interval': _number, 'record': _condition,
+    'rviz': _condition, 'loop': _bool,
     'use_sim_time': _bool, 'respawn': _bool,
 }
 

@@ -7,6 +7,9 @@ with the original spacing divided by ``rate``. Parameters (read-only):
 - ``rate``: speed factor (default 1; 2 = twice as fast);
 - ``loop``: start over after the last message (until SIGINT/SIGTERM), one mean interval of the bag later (0.1 s for a
   bag whose messages share one instant);
+- ``clock_rate``: publish ``/clock`` (``rosgraph_msgs/Clock``, best effort, as ``ros2 bag play --clock``) this often
+  [Hz] while replaying: the bag's log time of that instant (the first message's at the start of a pass, back to it
+  at each pass of a ``loop``), for nodes with ``use_sim_time``; 0 (the default): none;
 - ``topics``: replay only these topics (default: all);
 - ``wait_for_subscribers``: before the first message wait until every topic (or ``wait_topic`` alone: the replay
   launch's ``joint_states``, which its state publisher turns into /tf) has this many subscriptions (default 0), at
@@ -30,15 +33,19 @@ replayed as it is; a bag without checksums (another recorder's) is not.
 """
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from rclpy.exceptions import NameValidationException
 from rclpy.executors import Executor
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.validate_full_topic_name import validate_full_topic_name
+from rosgraph_msgs.msg import Clock
 
 from ..bags.checks_bag import checksum_check
 from ..bags.errors import BagError
@@ -110,6 +117,13 @@ class ReplayNode(GprNode):
                                'one of ' + ', '.join(sorted(pub.topic_name for pub in self.pubs.values())) + hint)
         self._names = {id(pub): n for n, pub in self.pubs.items()}
         self._served, self._warned_behind = 0.0, False
+        self.clock = None
+        if p['clock_rate'] > 0.0:
+            self.clock = self.create_publisher(Clock, '/clock', QoSProfile(   # rclcpp's ClockQoS, rosbag2's
+                depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+        #: The pass under way: its start (monotonic), its first log time [ns] and the rate; the next /clock due.
+        self._pass: tuple[float, int, float] | None = None
+        self._next_clock = 0.0
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
                                f'at rate {p["rate"]}{" in a loop" if p["loop"] else ""}')
         self._warn_checksums(bag)
@@ -164,11 +178,12 @@ class ReplayNode(GprNode):
             now = time.monotonic()
             delay = due - now
             if delay <= 0:
+                self._tick(now)
                 if now - self._served >= SERVE_PERIOD:
                     executor.spin_once(timeout_sec=0.0)
                     self._served = now
                 return
-            executor.spin_once(timeout_sec=min(delay, SPIN_TIMEOUT))
+            executor.spin_once(timeout_sec=min(delay, SPIN_TIMEOUT, self._tick(now)))
             self._served = time.monotonic()
 
     def wait_for_subscribers(self, executor: Executor, stop: StopFlag) -> None:
@@ -194,6 +209,7 @@ class ReplayNode(GprNode):
         while not stop and self.stream:
             t0 = time.monotonic()
             first = int(self.times[0])
+            self._pass, self._next_clock = (t0, first, rate), t0
             for (pub, raw), t in zip(self.stream, self.times.tolist(), strict=True):
                 self._wait(executor, stop, t0 + (t - first) * 1e-9 / rate)
                 if stop:
@@ -205,6 +221,21 @@ class ReplayNode(GprNode):
                 break
             self._wait(executor, stop, t0 + self._pass_period(rate))
         self.finish()
+
+    def _tick(self, now: float) -> float:
+        """Publish ``/clock`` if it is due at ``now`` (monotonic; ``clock_rate``): the bag's log time of the pass at
+        that instant; the seconds until the next one is due (inf without ``clock_rate`` or before the first pass)."""
+        if self.clock is None or self._pass is None:
+            return math.inf
+        if now >= self._next_clock:
+            t0, first, rate = self._pass
+            ns = first + round((now - t0) * rate * 1e9)
+            self.clock.publish(Clock(clock=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)))
+            period = 1.0 / float(self.p['clock_rate'])
+            self._next_clock += period
+            if self._next_clock <= now:   # behind (a long publish): the next one period from now, no burst
+                self._next_clock = now + period
+        return max(self._next_clock - now, 0.0)
 
     def _behind(self, took: float, rate: float) -> None:
         """Warn (once) where a pass took ``took`` s, more than :data:`BEHIND` of the bag's span at ``rate`` late: the

@@ -316,6 +316,8 @@ REPLAY: tuple[ParamSpec, ...] = (
               read_only=True),
     ParamSpec('rate', _D, 1.0, 'replay speed factor', (1e-3, 1e6), read_only=True),
     ParamSpec('loop', _B, False, 'start over after the last message', read_only=True),
+    ParamSpec('clock_rate', _D, 0.0, "publish /clock at this rate [Hz] while replaying, the bag's time (as ros2 bag "
+              'play --clock; for nodes with use_sim_time); 0 = none', (0.0, 1000.0), read_only=True),
     ParamSpec('topics', _SA, [''], 'topics to replay (empty or [\'\']: all)',
               constraint='topic names present in the bag', read_only=True),
     ParamSpec('wait_for_subscribers', _I, 0, 'wait for this many subscriptions on every topic first', (0, 1000),
