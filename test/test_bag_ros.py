@@ -556,7 +556,7 @@ def test_replay_loop_repeats_until_sigint(tmp_path: Path) -> None:
     assert got == (ref * (len(got) // len(ref) + 1))[:len(got)]
 
 
-def test_clock_rate_publishes_the_bags_time_on_clock() -> None:
+def test_clock_rate_publishes_the_bags_time_on_clock(tmp_path: Path) -> None:
     """Nodes with use_sim_time had no /clock from a replay (``ros2 bag play --clock`` gives one): with
     ``clock_rate`` 50 at ``rate`` 2 it publishes the bag's log time about every 20 ms, 40 ms of the bag apart, from
     the first message's time on, never back, and not past the last message's (no loop)."""
@@ -585,6 +585,14 @@ def test_clock_rate_publishes_the_bags_time_on_clock() -> None:
     assert len(ticks) >= 25 and np.all(steps >= 0), ticks
     assert first <= ticks[0] <= first + 100_000_000 and ticks[-1] <= last + 100_000_000, (first, ticks, last)
     assert 30e6 <= np.median(steps) <= 50e6, np.median(steps)   # 20 ms apart, the bag at twice its speed
+    # a bag past 2038 (its log times beyond builtin_interfaces/Time's int32 seconds): refused at the start, not a
+    # traceback at its first tick
+    from gpr_kinematics.bags.writer import SegmentedBagWriter
+    late = tmp_path / 'late'
+    with SegmentedBagWriter(late, {'/chatter': 'std_msgs/msg/String'}, fsync=False) as w:
+        w.write('/chatter', 2 ** 31 * 10 ** 9 + 5, bytes([0, 1, 0, 0, 3, 0, 0, 0]) + b'hi\x00')
+    bad = start('replay_node', bag=late, clock_rate=10.0)
+    assert bad.wait(30) == 2 and 'beyond what /clock carries' in bad.output(), bad.output()
 
 
 @pytest.mark.slow

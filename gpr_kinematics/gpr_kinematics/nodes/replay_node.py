@@ -9,7 +9,8 @@ with the original spacing divided by ``rate``. Parameters (read-only):
   bag whose messages share one instant);
 - ``clock_rate``: publish ``/clock`` (``rosgraph_msgs/Clock``, best effort, as ``ros2 bag play --clock``) this often
   [Hz] while replaying: the bag's log time of that instant (the first message's at the start of a pass, back to it
-  at each pass of a ``loop``), for nodes with ``use_sim_time``; 0 (the default): none;
+  at each pass of a ``loop``), for nodes with ``use_sim_time``; 0 (the default): none; a bag whose log times pass
+  2038-01-19 (beyond ``builtin_interfaces/Time``) is refused with it;
 - ``topics``: replay only these topics (default: all);
 - ``wait_for_subscribers``: before the first message wait until every topic (or ``wait_topic`` alone: the replay
   launch's ``joint_states``, which its state publisher turns into /tf) has this many subscriptions (default 0), at
@@ -64,6 +65,8 @@ LOOP_GAP = 0.1
 SERVE_PERIOD = 0.01
 #: A pass later than this share of the bag's span (and 0.1 s) is warned about.
 BEHIND = 0.1
+#: The latest instant a ``builtin_interfaces/Time`` carries [ns] (its ``sec`` is an int32: 2038-01-19).
+LAST_TIME_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
 
 
 class ReplayNode(GprNode):
@@ -119,6 +122,10 @@ class ReplayNode(GprNode):
         self._served, self._warned_behind = 0.0, False
         self.clock = None
         if p['clock_rate'] > 0.0:
+            if len(self.times) and int(self.times[-1]) > LAST_TIME_NS:   # publish() would raise in a pass
+                raise BagError(f'clock_rate = {p["clock_rate"]:g}: the bag\'s log times reach '
+                               f'{int(self.times[-1])} ns, beyond what /clock carries (builtin_interfaces/Time: '
+                               f'{LAST_TIME_NS} ns, 2038-01-19); allowed: clock_rate 0 for this bag')
             self.clock = self.create_publisher(Clock, '/clock', QoSProfile(   # rclcpp's ClockQoS, rosbag2's
                 depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
         #: The pass under way: its start (monotonic), its first log time [ns] and the rate; the next /clock due.
@@ -229,7 +236,7 @@ class ReplayNode(GprNode):
             return math.inf
         if now >= self._next_clock:
             t0, first, rate = self._pass
-            ns = first + round((now - t0) * rate * 1e9)
+            ns = min(first + round((now - t0) * rate * 1e9), LAST_TIME_NS)   # a loop's gap past the bag's end
             self.clock.publish(Clock(clock=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)))
             period = 1.0 / float(self.p['clock_rate'])
             self._next_clock += period
