@@ -34,7 +34,7 @@ def test_the_clock_watch_speaks_after_3_s_then_every_10_s_and_not_while_time_mov
     text, warning = said[2][1]
     assert warning and text == ('no /clock has arrived in 3 s: use_sim_time is true and the goal stream (before '
                                 'sample 0 of 151) waits for simulated time; allowed: a /clock publisher (a simulator, '
-                                'ros2 bag play --clock), or use_sim_time false')
+                                'ros2 bag play --clock, replay_node with clock_rate), or use_sim_time false')
     assert w.check(5 * 10**9, 114.0, 'x') is None           # time moved: quiet again, for 3 s
     assert w.check(5 * 10**9, 116.9, 'x') is None
     assert w.check(5 * 10**9, 117.0, 'the sweep stream') == (

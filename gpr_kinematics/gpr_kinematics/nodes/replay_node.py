@@ -8,8 +8,9 @@ with the original spacing divided by ``rate``. Parameters (read-only):
 - ``loop``: start over after the last message (until SIGINT/SIGTERM), one mean interval of the bag later (0.1 s for a
   bag whose messages share one instant);
 - ``clock_rate``: publish ``/clock`` (``rosgraph_msgs/Clock``, best effort, as ``ros2 bag play --clock``) this often
-  [Hz] while replaying: the bag's log time of that instant (the first message's at the start of a pass, back to it
-  at each pass of a ``loop``), for nodes with ``use_sim_time``; 0 (the default): none; a bag whose log times pass
+  [Hz]: the bag's log time of that instant (the first message's while it waits for subscribers and at the start of
+  a pass, back to it at each pass of a ``loop``), for nodes with ``use_sim_time``; 0 (the default): none; a bag whose
+  log times pass
   2038-01-19 (beyond ``builtin_interfaces/Time``) is refused with it;
 - ``topics``: replay only these topics (default: all);
 - ``wait_for_subscribers``: before the first message wait until every topic (or ``wait_topic`` alone: the replay
@@ -128,7 +129,8 @@ class ReplayNode(GprNode):
                                f'{LAST_TIME_NS} ns, 2038-01-19); allowed: clock_rate 0 for this bag')
             self.clock = self.create_publisher(Clock, '/clock', QoSProfile(   # rclcpp's ClockQoS, rosbag2's
                 depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
-        #: The pass under way: its start (monotonic), its first log time [ns] and the rate; the next /clock due.
+        #: The pass under way: its start (monotonic), its first log time [ns] and the rate (0 while it waits for
+        #: subscribers: the clock held at the bag's start); the next /clock due.
         self._pass: tuple[float, int, float] | None = None
         self._next_clock = 0.0
         self.get_logger().info(f'replaying {len(self.stream)} messages of {len(names)} topic(s) from {p["bag"]} '
@@ -197,7 +199,10 @@ class ReplayNode(GprNode):
         want = int(self.p['wait_for_subscribers'])
         if want <= 0:
             return
-        deadline = time.monotonic() + float(self.p['wait_timeout'])
+        now = time.monotonic()
+        if len(self.times):   # /clock holds the bag's start meanwhile (ros2 bag play --clock's paused clock)
+            self._pass, self._next_clock = (now, int(self.times[0]), 0.0), now
+        deadline = now + float(self.p['wait_timeout'])
         while not stop and time.monotonic() < deadline:
             if all(pub.get_subscription_count() >= want for pub in self.waited):
                 return

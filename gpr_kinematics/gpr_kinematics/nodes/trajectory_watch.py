@@ -71,8 +71,8 @@ class ClockWatch:
         self._next += CLOCK_WORD_EVERY
         if sim_ns == 0:
             return (f'no /clock has arrived in {waited:.0f} s: use_sim_time is true and {waiting} waits for simulated '
-                    'time; allowed: a /clock publisher (a simulator, ros2 bag play --clock), or use_sim_time false',
-                    True)
+                    'time; allowed: a /clock publisher (a simulator, ros2 bag play --clock, replay_node with '
+                    'clock_rate), or use_sim_time false', True)
         return (f'the simulated clock has stood at {sim_ns * 1e-9:.3f} s for {waited:.0f} s (/clock paused or '
                 f'stopped): {waiting} waits for it', False)
 
