@@ -94,3 +94,11 @@ def _ros_marked_module(request: pytest.FixtureRequest) -> None:
     """Modules marked ``ros`` get :func:`ros_environment` before any of their fixtures."""
     if request.node.get_closest_marker('ros') is not None:
         request.getfixturevalue('ros_environment')
+
+
+@pytest.fixture(autouse=True)
+def _no_progress_line_unless_asked(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A command run in the test's process shows no progress line (``cli.progress.AFTER``: 2 s of wall time, which a
+    loaded machine reaches where a quiet one does not, and its stderr then held lines its test did not expect); the
+    tests of the line set ``AFTER`` themselves (0 s: shown from the start)."""
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', float('inf'))

@@ -166,3 +166,21 @@ def test_export_and_send_keep_the_margin_given_as_check_does(capsys, tmp_path):
         status, out, err = run(capsys, 'program', command, str(cell_program), *extra, '--margin', '5')
         assert (status, out) == (2, '') and err == (f'gpr program {command}: error: margin = 5.0 is invalid; allowed: '
                                                     'metres, at least 0 and at most 1 (5 mm? give 0.005)\n'), err
+
+
+@pytest.mark.slow
+def test_export_shows_its_checks_progress_unless_no_progress(capsys, tmp_path, monkeypatch):
+    """``export`` checks the program as ``check`` does (seconds on a real program) without a word, and had no
+    ``--no-progress``: with the line shown from the start (``AFTER`` 0 s) its stages and their ends go to stderr, for
+    the tables as for the trajectory; ``--no-progress`` writes nothing there and the same stdout."""
+    monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', 0.0)
+    for option, name in (('--waypoints', 'w.csv'), ('--trajectory', 't.yaml')):
+        argv = ('program', 'export', str(PROGRAM), option, str(tmp_path / name))
+        status, shown, err = run(capsys, *argv)
+        lines = err.splitlines()
+        assert status == 0 and lines and all(re.fullmatch(r'.+: +\d+\.\d % \(\d+\.\d s\)', line) for line in lines), err
+        assert {line.split(':')[0] for line in lines} >= {'clearance', 'slip'}, lines
+        assert all(any(line.startswith(f'{stage}: 100.0 %') for line in lines)
+                   for stage in {line.split(':')[0] for line in lines}), lines
+        status, quiet, err = run(capsys, *argv, '--no-progress')
+        assert (status, quiet, err) == (0, shown, ''), err

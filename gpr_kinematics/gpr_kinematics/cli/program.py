@@ -28,7 +28,7 @@ from .options import named_file, number, png_plot, program_plan, robot_options, 
 from .output import JsonValue, emit_json
 from .program_send import send_parser
 from .program_trajectory import SLIP_HELPS, add_margin, as_a_controller_takes_it, margin_of, the_program_is_safe
-from .progress import add_no_progress, progress_line
+from .progress import ProgressLine, add_no_progress, progress_line
 
 if TYPE_CHECKING:
     from ..safety.check import SafetyReport
@@ -176,7 +176,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     for path in (args.waypoints, args.samples):
         if path is not None:  # refused before the program is planned
             check_table_path(path)
-    margin_of(args)
+    margin = margin_of(args)
     at_rate = args.samples is not None or args.trajectory is not None
     sample_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
     _check_trajectory_output(args)
@@ -185,7 +185,12 @@ def _cmd_export(args: argparse.Namespace) -> int:
         from ..robot.trajectory import within_a_day
         within_a_day(plan.timing.total + args.lead_in, f'{plan.program.source}: the trajectory'
                      + (f' with its --lead-in of {args.lead_in:g} s' if args.lead_in else ''))
-    unsafe = _tables_of_a_safe_program(args, plan)
+    line = progress_line(args.no_progress)
+    try:
+        unsafe = _tables_of_a_safe_program(args, plan, margin, line)
+        checked = _export_trajectory(args, plan, margin, line)   # checked before any file is written
+    finally:
+        line.close()
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
     written: dict[str, JsonValue] = {}  # the paths written, under keys of their own (the summary counts 'waypoints')
     if args.waypoints is not None:
@@ -195,7 +200,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
         written['samples_file'] = str(write_table(args.samples, *sample_table(plan, sampled),
                                                   meta | {'rate': args.rate}))
         written['sample_count'] = len(sampled)
-    written |= _export_trajectory(args, plan)
+    written |= checked
     if args.json:
         emit_json(program_summary(plan), **written)
     else:
@@ -211,7 +216,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any) -> str:
+def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any, margin: float, line: ProgressLine) -> str:
     """Refuse (:class:`~gpr_kinematics.errors.UnsafeError`, status 1) the joint tables of a program ``gpr program
     check`` finds not safe, as the trajectory is (they drive a controller as it does: a colliding program's and a
     slipping one's were written with exit 0); with ``--force`` the reason, the tables then written (status 1). With
@@ -220,7 +225,7 @@ def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any) -> str:
     if args.trajectory is not None:
         return ''
     try:
-        the_program_is_safe(plan, args.rate, 'export', margin_of(args))
+        the_program_is_safe(plan, args.rate, 'export', margin, line)
     except UnsafeError as exc:
         if not args.force:
             raise UnsafeError(f'{exc}; --force writes the tables anyway, for analysis (status 1)') from None
@@ -241,14 +246,15 @@ def _check_trajectory_output(args: argparse.Namespace) -> None:
         raise InputError('--lead-in applies to --trajectory FILE.yaml, which is not given')
 
 
-def _export_trajectory(args: argparse.Namespace, plan: Any) -> dict[str, Any]:
-    """``--trajectory``: the program's trajectory at ``--rate``, its points ``--lead-in`` seconds later."""
+def _export_trajectory(args: argparse.Namespace, plan: Any, margin: float, line: ProgressLine) -> dict[str, Any]:
+    """``--trajectory``: the program's trajectory at ``--rate``, its points ``--lead-in`` seconds later, checked at
+    ``margin`` [m] as a controller takes it (its check's progress on ``line``)."""
     if args.trajectory is None:
         return {}
     from ..robot.trajectory import program_trajectory, write_trajectory
     traj = program_trajectory(plan, args.rate)
     # in the program's time (its wafers' windows)
-    as_a_controller_takes_it(plan, traj, args.rate, 'export', margin_of(args))
+    as_a_controller_takes_it(plan, traj, args.rate, 'export', margin, line)
     traj = traj.shifted(args.lead_in)
     return {'trajectory_file': write_trajectory(args.trajectory, traj), 'trajectory_points': len(traj),
             'trajectory_duration': traj.duration}
@@ -287,6 +293,7 @@ def register(sub: Any) -> None:
     p.add_argument('--force', action='store_true', help='write the tables (not a trajectory) of a program check '
                    'finds not safe, for analysis (status 1)')
     add_margin(p, 'the program and its trajectory')
+    add_no_progress(p)
     robot_options(p, program=True, cell=True)
     p.set_defaults(handler=_cmd_export)
     send_parser(psub)
