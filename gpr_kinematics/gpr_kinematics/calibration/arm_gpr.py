@@ -30,13 +30,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_distribution
 
 from ..core.geometry_covariance import GeometryCovariance
 from ..errors import InputError
 from .arm import ArmModel
 from .chi2_mixture import quantile
 from .core_model import CoreModel
+from .distributions import chi2_ppf
 from .model import ParameterSet, PoseModel, evaluate, pose_jacobian
 from .plausibility import measured_errors
 from .quality import CHI2_QUANTILE, Gate, GateCheck, outlier_check, spread
@@ -215,7 +215,7 @@ class ResidualShare:
                              f'noise chi square: the residuals have no degree of freedom {where} ({self.dof} in all): '
                              "only the mixture's chi-square judges them; allowed: more rows.", judged=False)
         value = float(r @ r - np.sum((self.basis.T @ r) ** 2)) / free
-        limit = float(chi2_distribution.ppf(CHI2_QUANTILE, free) / free)
+        limit = chi2_ppf(CHI2_QUANTILE, free) / free
         return GateCheck('noise_chi_square', value <= limit, value, limit, '' if value <= limit else
                          f'The residuals {where}, which no error of the GPR or its registration reaches, exceed the '
                          f'noise: reduced chi-square {value:.4g} above the gate {limit:.4g} (the '

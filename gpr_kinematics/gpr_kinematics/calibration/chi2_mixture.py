@@ -19,7 +19,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize
-from scipy.stats import norm
+
+from .distributions import normal_pdf, normal_sf
 
 Array = NDArray[np.float64]
 
@@ -39,7 +40,7 @@ def survival(x: float, lam: Array, h: Array) -> float:
     k = -0.5 * float(np.sum(h * np.log1p(-2.0 * lam * s)))
     w = math.copysign(math.sqrt(max(2.0 * (s * x - k), 0.0)), s)
     u = s * math.sqrt(float(np.sum(2.0 * h * lam ** 2 / (1.0 - 2.0 * lam * s) ** 2)))
-    return float(norm.sf(w) + norm.pdf(w) * (1.0 / u - 1.0 / w))
+    return normal_sf(w) + normal_pdf(w) * (1.0 / u - 1.0 / w)
 
 
 def quantile(p: float, lam: Array, h: Array) -> float:

@@ -49,10 +49,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import chi2 as chi2_distribution
-from scipy.stats import norm as norm_distribution
-from scipy.stats import t as t_distribution
 
+from .distributions import chi2_ppf, normal_isf, t_isf
 from .fitting import gram
 from .model import ParameterSet
 
@@ -234,7 +232,7 @@ class Gate:
 
 def chi2_limit(dof: int) -> float:
     """The reduced chi-square at :data:`CHI2_QUANTILE` for ``dof`` degrees of freedom."""
-    return float(chi2_distribution.ppf(CHI2_QUANTILE, dof) / dof)
+    return float(chi2_ppf(CHI2_QUANTILE, dof) / dof)
 
 
 #: Residuals of each kind, columns of the residual blocks: a measured pose's, a measured point's.
@@ -294,7 +292,7 @@ def outlier_limit(count: int, nu: float = math.inf) -> float:
     two-sided): the normal's, or Student's t's with ``nu`` degrees of freedom for residuals over a scale estimated
     from them (:func:`robust_dof`)."""
     p = (1.0 - CHI2_QUANTILE) / 2.0 / count
-    return float(norm_distribution.isf(p) if math.isinf(nu) else t_distribution.isf(p, nu))
+    return normal_isf(p) if math.isinf(nu) else t_isf(p, nu)
 
 
 def studentized(h: Array, residual: Array) -> Array:
@@ -385,7 +383,7 @@ def sigma_check(h: Array | None, residual: Array, kinds: Sequence[str] | None = 
         if dof < 1.0 or (kinds is not None and kind not in kinds):
             continue
         red = float(np.sum(residual[:, part] ** 2)) / dof
-        low = float(chi2_distribution.ppf(1.0 - CHI2_QUANTILE, dof) / dof)
+        low = float(chi2_ppf(1.0 - CHI2_QUANTILE, dof) / dof)
         if found is None or red / low < found[0] / found[3]:
             found = (red, kind, dof, low)
     if found is None:
