@@ -69,8 +69,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
         line.close()
     written: dict[str, str] = {}
     if args.plot is not None:
+        from ..safety.plan_view import plan_view
         from ..safety.plot import plot_check
-        written['plot_file'] = str(plot_check(args.plot, clear, slip, report, args.program))
+        view = plan_view(plan, cell)
+        written['plot_file'] = str(plot_check(args.plot, clear, slip, report, args.program, view))
     if args.json:
         emit_json(ProgramCheck(program_summary(plan), report), **written)
     else:
@@ -272,7 +274,8 @@ def register(sub: Any) -> None:
     p.add_argument('--cell', metavar='FILE', type=shipped(CELLS),
                    help='the process cell (default: the program\'s cell, else none)')
     add_margin(p, 'the cell and against the robot itself')
-    p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time (needs matplotlib)')
+    p.add_argument('--plot', metavar='FILE.png', help='clearance and slip ratio against time, the cell from above '
+                   '(needs matplotlib)')
     p.add_argument('--rate', type=number, default=STREAM_RATE, help='the rate of the stream whose samples the '
                    f'imperfection budget is judged at [Hz] (trajectory_node\'s rate; default {STREAM_RATE:g}; 0.1 to '
                    '5000)')

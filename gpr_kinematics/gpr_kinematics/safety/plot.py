@@ -1,6 +1,7 @@
 """``gpr program check --plot``: the certified clearance and the slip ratio against time, the margin and the limit
-drawn, the closest pair and the largest slip marked and named, each pick's and place's hold at its station marked
-(matplotlib).
+drawn, the closest pair and the largest slip marked and named, each pick's and place's hold at its station marked;
+beside them the cell from above (:mod:`.plan_view`: the obstacles' outlines, the blades' paths, the stations, the
+closest pair's obstacle and where its arm was) (matplotlib).
 
 The clearance curve is, on each interval of the base sampling, the certified lower bound of every pair's distance
 there (the smallest over all pairs of the branch and bound's final bounds): the true clearance is never below it,
@@ -24,6 +25,7 @@ from numpy.typing import NDArray
 from .budget import BudgetReport
 from .check import SafetyReport
 from .clearance import ClearanceReport
+from .plan_view import PlanView
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -34,9 +36,10 @@ TOP_MM = 60.0
 
 
 def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArray[np.float64]],
-                 report: SafetyReport, program: str | Path | None = None) -> Figure:
-    """The figure (a matplotlib Figure, Agg): clearance [mm] above, slip ratio below, against time [s]; the title
-    names the program, the cell and the verdict with its numbers as the text output prints them."""
+                 report: SafetyReport, program: str | Path | None = None, view: PlanView | None = None) -> Figure:
+    """The figure (a matplotlib Figure, Agg): clearance [mm] above, slip ratio below, against time [s], and with
+    ``view`` the cell from above beside them (:func:`draw_plan_view`); the title names the program, the cell and the
+    verdict with its numbers as the text output prints them."""
     import matplotlib
 
     matplotlib.use('Agg')
@@ -45,7 +48,15 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     least = report.min_clearance * 1e3
     top = TOP_MM if not np.isfinite(least) or least < 0.9 * TOP_MM else 1.2 * least
     t, bound = clear.series
-    fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(11, 6.5), constrained_layout=True)
+    if view is None:
+        fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(11, 6.5), constrained_layout=True)
+    else:
+        fig = plt.figure(figsize=(17, 6.5), constrained_layout=True)
+        grid = fig.add_gridspec(2, 2, width_ratios=(11, 6))
+        ax1 = fig.add_subplot(grid[0, 0])
+        ax2 = fig.add_subplot(grid[1, 0], sharex=ax1)
+        ax1.tick_params(labelbottom=False)
+        draw_plan_view(fig.add_subplot(grid[:, 1]), view, clear, report)
     if t.size > 1:
         shown = np.clip(np.where(np.isfinite(bound), bound * 1e3, top), None, top)
         # the search stops refining once a pair is below the margin (or the slip fails): not for the budget alone
@@ -91,19 +102,65 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
 
 
 def plot_check(path: str | Path, clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArray[np.float64]],
-               report: SafetyReport, program: str | Path | None = None) -> Path:
+               report: SafetyReport, program: str | Path | None = None, view: PlanView | None = None) -> Path:
     """Write :func:`check_figure` to ``path`` (PNG, atomically) and return it."""
     import matplotlib.pyplot as plt
 
     from ..inputs.files import atomic_output
 
-    fig = check_figure(clear, slip, report, program)
+    fig = check_figure(clear, slip, report, program, view)
     try:
         with atomic_output(path, 'plot', binary=True) as out:
             fig.savefig(out, format='png', dpi=90)
     finally:
         plt.close(fig)
     return Path(path)
+
+
+def draw_plan_view(ax: Axes, view: PlanView, clear: ClearanceReport, report: SafetyReport) -> None:
+    """The cell from above on ``ax`` [mm]: the obstacles grey (the closest pair's red and named), each arm's blade
+    path (thick: carrying a wafer), the stations, where the closest pair's arm was at its least distance (a
+    triangle) and, in an unsafe program, at the first approach below the margin (an x)."""
+    closest = clear.pairs[0] if clear.pairs else None
+    for name, poly in view.outlines:
+        near = closest is not None and name in closest.bodies
+        ax.fill(*(poly * 1e3).T, facecolor='#f4c7c3' if near else '0.88', edgecolor='r' if near else '0.45', lw=0.7,
+                zorder=1)
+        if near:
+            ax.annotate(name, (float(poly[:, 0].mean()) * 1e3, float(poly[:, 1].min()) * 1e3), xytext=(0, -3),
+                        textcoords='offset points', fontsize=7, color='r', ha='center', va='top', zorder=4)
+    for k, (arm, xy, _, held) in enumerate(view.paths):
+        color = f'C{k}'
+        ax.plot(*(xy * 1e3).T, color=color, lw=0.6, zorder=2, label=f'{arm}: its wafer centre (empty blade)')
+        ax.plot(*(np.where(held[:, None], xy, np.nan) * 1e3).T, color=color, lw=2.0, zorder=2,
+                label=f'{arm} carrying a wafer')
+    ax.plot(*(view.stations * 1e3).T, '+', color='k', ms=7, zorder=3, label='stations')
+    for name, xy in zip(view.station_names, view.stations, strict=True):
+        ax.annotate(f' {name}', xy * 1e3, fontsize=6, color='0.3', zorder=3)
+    if closest is not None:
+        at = _where_arm(view, closest.bodies, closest.time)
+        if at is not None:
+            ax.plot(*(at * 1e3), 'v', color='k', ms=8, zorder=5,
+                    label=f'its wafer centre at the least\nclearance ({" / ".join(closest.bodies)})')
+    if report.collisions:
+        c = report.collisions[0]
+        at = _where_arm(view, c.bodies, c.time)
+        if at is not None:
+            ax.plot(*(at * 1e3), 'x', color='r', ms=9, mew=2, zorder=5, label='first below the margin')
+    ax.set_aspect('equal', adjustable='datalim')
+    ax.set_xlabel('x [mm] (world)')
+    ax.set_ylabel('y [mm]')
+    ax.set_title('from above: obstacles, blade paths, stations', fontsize=9)
+    ax.legend(loc='upper center', bbox_to_anchor=(0.5, -0.1), fontsize=7, ncol=2)
+
+
+def _where_arm(view: PlanView, bodies: tuple[str, str], time: float) -> NDArray[np.float64] | None:
+    """The wafer centre [m] of the arm owning one of ``bodies`` (``arm1_link2``, ``arm2_wafer``) at the sample
+    nearest ``time`` among those it is in use; None for a pair of no arm's body."""
+    for arm, xy, t, _ in view.paths:
+        if any(b == arm or b.startswith(f'{arm}_') for b in bodies) and t.size:
+            return np.asarray(xy[int(np.argmin(np.abs(t - time)))], dtype=float)
+    return None
 
 
 #: A waypoint where a pick or place holds at its station (:attr:`~.check.MoveSafety.label`).
