@@ -69,12 +69,13 @@ def test_a_tilt_of_degrees_typed_as_radians_is_named_as_typed_with_the_hint(caps
 
 @pytest.mark.parametrize('argv, message', [
     # in degrees, or radians no degrees explain: no hint
+    # under --deg in degrees as typed, the radians beside (as --mm's points are named; radians came first)
     (['ik', '--height', '0.5', '--tilt', '3', '--azimuth', '0', '--deg'],
-     '--tilt = 0.0523598776 rad (3 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)'),
+     '--tilt = 3 deg (0.0523598776 rad) is beyond the tilt limit; allowed: |tilt| <= 2 deg (0.034906585 rad)'),
     (['ik', '--height', '0.5', '--tilt', '0.05', '--azimuth', '0'],
      '--tilt = 0.05 rad (2.86479 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)'),
     (['sweep', '--max-tilt', '3', '--deg'],
-     '--max-tilt = 0.0523598776 rad (3 deg) is beyond the tilt limit; allowed: --max-tilt <= 0.034906585 rad (2 deg)'),
+     '--max-tilt = 3 deg (0.0523598776 rad) is beyond the tilt limit; allowed: --max-tilt <= 2 deg (0.034906585 rad)'),
     (['ik', '--height', '0.5', '--tilt', '-2', '--azimuth', '0'],
      '--tilt = -2 rad (-114.592 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)' + DEGREES),
     (['dexterity', 'gpr.yaml', '--pose', '0', '0', '0.5', '1.2', '1.6', '0'],

@@ -527,6 +527,9 @@ def test_the_defects_of_issue_18(worker: Worker, tmp_path: Path) -> None:
         (['calibrate', str(measurements), '--output', str(measurements)],
          f"--output '{measurements}' is the same file as MEASUREMENTS"),
         (['calibrate', str(measurements), '--output', str(tmp_path / 'hard_link.csv')], 'is the same file as'),
+        # an option named as typed ('CONFIG' before), a positional by its metavar
+        (['calibrate', str(measurements), '--output', str(robot), '--config', str(robot)],
+         f"--output '{robot}' is the same file as --config '{robot}' (an input of this command)"),
         (['program', 'export', str(program), '--waypoints', str(robot)], 'is a file this command reads'),
         (['verify', str(bag), '--report', str(bag)], f"--report '{bag}' is the same file as BAG"),
         (['accuracy', 'gpr.yaml', '--tolerances', str(tolerances), '--pose', '0', '0', '0.5', '0', '0', '0'],

@@ -151,7 +151,10 @@ def test_dexterity_plot_and_json(capsys, tmp_path):
 
 
 @pytest.mark.parametrize('argv, message', [
-    (['mechanism', 'upu3.yaml', '--pose', '0', '0', '0.3', '0', '0', '0'], 'is outside its limits'),
+    (['mechanism', 'upu3.yaml', '--pose', '0', '0', '0.3', '0', '0', '0'], 'is outside its limits [0.17, 0.27] m\n'),
+    # 200 mm typed as metres: legs of 200 m, said without a hint (the GPR's, the robot's and accuracy's give one)
+    (['mechanism', 'upu3.yaml', '--pose', '0', '0', '200', '0', '0', '0'],
+     'joint l1 = 200 m is outside its limits [0.17, 0.27] m (millimetres given as metres?)\n'),
     (['mechanism', 'upu3.yaml', '--pose', '0', '0', '0.2', '0.1', '0', '0'], 'only translates'),
     (['mechanism', 'nosuch.yaml', '--pose', '0', '0', '0.2', '0', '0', '0'], 'not found'),
     (['mechanism', 'gpr.yaml', '--pose', '0', '0', '0.3', '5', '0', '0', '--deg'], 'tilt limit'),

@@ -161,10 +161,10 @@ def test_export_and_send_keep_the_margin_given_as_check_does(capsys, tmp_path):
                 in err), err
         status, _, err = run(capsys, 'program', 'export', str(cell_program), option, str(path), '--margin', '0.006')
         assert status == 0 and path.exists(), err
-    for command in ('export', 'send'):
+    for command in ('check', 'export', 'send'):   # named as typed ('margin = 5.0' before)
         extra = ('--waypoints', str(tmp_path / 'x.csv')) if command == 'export' else ()
         status, out, err = run(capsys, 'program', command, str(cell_program), *extra, '--margin', '5')
-        assert (status, out) == (2, '') and err == (f'gpr program {command}: error: margin = 5.0 is invalid; allowed: '
+        assert (status, out) == (2, '') and err == (f'gpr program {command}: error: --margin = 5 is invalid; allowed: '
                                                     'metres, at least 0 and at most 1 (5 mm? give 0.005)\n'), err
 
 

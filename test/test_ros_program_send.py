@@ -197,7 +197,7 @@ def test_no_action_server_names_the_full_action_and_how_to_change_it(ros_environ
     ('--joint-states', '1x', "--joint-states '1x': Invalid topic name: topic name token must not start with a number"),
     ('--action', '//x', "--action '//x': Invalid topic name: topic name must not contain repeated '/'"),
     ('--progress', 'nan', '--progress = nan s; allowed: 0 < progress <= 3600 s'),
-    ('--progress', '-1', '--progress = -1.0 s; allowed: 0 < progress <= 3600 s'),
+    ('--progress', '-1', '--progress = -1 s; allowed: 0 < progress <= 3600 s'),
 ])
 def test_bad_names_and_progress_exit_2_with_one_line_before_any_node(ros_environment, option, value, words):
     """rclpy raised bad names as tracebacks (exit 1); --progress nan printed no progress line at all."""

@@ -397,17 +397,19 @@ def typed_tilt(args: argparse.Namespace, option: str, value: float, typed: float
     (default ``|value|``: what the core checks) is beyond ``config``'s tilt limit by the core's rule
     (:func:`~gpr_kinematics.core.inverse.tilt_target_slack`), in the core's words with ``allowed`` (``--max-tilt``
     for the sweep's) and, where ``typed`` read as degrees would be within the limit and more than ten times it as
-    radians, :data:`DEGREES_HINT` (``gpr robot ik``'s rule: ``--tilt 2`` meant 2 deg). A tilt that is not finite is
-    left to the core."""
+    radians, :data:`DEGREES_HINT` (``gpr robot ik``'s rule: ``--tilt 2`` meant 2 deg); under ``--deg`` the degrees
+    first, as typed. A tilt that is not finite is left to the core."""
     from ..core.forward import beyond_tilt
     from ..core.inverse import tilt_target_slack
     checked = abs(value) if tilt is None else tilt
     slack = tilt_target_slack(config)
     if not math.isfinite(checked) or checked - config.tilt_limit <= slack:
         return
-    degrees = not getattr(args, 'deg', False) and abs(typed) > 10.0 * config.tilt_limit and \
+    typed_deg = bool(getattr(args, 'deg', False))   # named in the unit typed, the radians beside
+    degrees = not typed_deg and abs(typed) > 10.0 * config.tilt_limit and \
         math.radians(abs(typed)) - config.tilt_limit <= slack
-    raise LimitError(f'{option} = {beyond_tilt(value, config.tilt_limit, allowed)}{DEGREES_HINT if degrees else ""}')
+    raise LimitError(f'{option} = {beyond_tilt(value, config.tilt_limit, allowed, typed_deg)}'
+                     f'{DEGREES_HINT if degrees else ""}')
 
 
 def robot_options(p: argparse.ArgumentParser, program: bool = False, cell: bool = False) -> None:

@@ -115,11 +115,23 @@ def _existing(value: object) -> list[str]:
     return [v for v in _given(value) if os.path.exists(v)]
 
 
-def distinct_outputs(args: argparse.Namespace) -> None:
+def _typed(parser: argparse.ArgumentParser | None, dest: str) -> str:
+    """How the user names the argument ``dest`` of ``parser``: its option (``--config``), else its metavar
+    (``MEASUREMENTS``); ``dest`` in capitals without a parser."""
+    for action in () if parser is None else parser._actions:
+        if action.dest == dest:
+            if action.option_strings:
+                return max(action.option_strings, key=len)
+            return action.metavar if isinstance(action.metavar, str) else dest.upper()
+    return dest.upper()
+
+
+def distinct_outputs(args: argparse.Namespace, parser: argparse.ArgumentParser | None = None) -> None:
     """Refuse, before any work, an output (:data:`OUTPUT_OPTIONS`) that names an existing file or folder the command
     also takes as an input, or another output (``gpr calibrate M.csv --output M.csv`` overwrote the measurements
-    with the calibrated geometry). Files the command reads without naming them (a robot's geometry file) are
-    refused when written (:func:`gpr_kinematics.inputs.files.check_output`)."""
+    with the calibrated geometry), each named as the command's ``parser`` names it (``--config``, not ``CONFIG``).
+    Files the command reads without naming them (a robot's geometry file) are refused when written
+    (:func:`gpr_kinematics.inputs.files.check_output`)."""
     values = vars(args)
     named = [(k, v) for k in OUTPUT_OPTIONS for v in _given(values.get(k))]
     for i, (key, out) in enumerate(named):  # two outputs of one path, existing or not: one table would be lost
@@ -137,5 +149,5 @@ def distinct_outputs(args: argparse.Namespace) -> None:
                 continue
             if same:
                 what = 'an input of this command' if other not in OUTPUT_OPTIONS else 'another output'
-                raise InputError(f'--{key} {out!r} is the same file as {other.upper()} {path!r} ({what}); allowed: '
-                                 'an output that is none of the files the command reads or writes')
+                raise InputError(f'--{key} {out!r} is the same file as {_typed(parser, other)} {path!r} ({what}); '
+                                 'allowed: an output that is none of the files the command reads or writes')

@@ -243,7 +243,7 @@ def _check_trajectory_output(args: argparse.Namespace) -> None:
         check_suffix(args.trajectory, '--trajectory', ('.yaml', '.yml'))
         check_output(args.trajectory, 'trajectory')
     if not 0.0 <= args.lead_in <= 3600.0:
-        raise InputError(f'--lead-in = {args.lead_in!r} s; allowed: 0 to 3600 s')
+        raise InputError(f'--lead-in = {args.lead_in:.12g} s; allowed: 0 to 3600 s')
     if args.lead_in and args.trajectory is None:
         raise InputError('--lead-in applies to --trajectory FILE.yaml, which is not given')
 

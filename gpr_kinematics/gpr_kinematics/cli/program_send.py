@@ -190,9 +190,9 @@ def _check_times(args: argparse.Namespace) -> None:
     """``--timeout``, ``--progress``, ``--rate`` and ``--margin`` within their bounds
     (:class:`~gpr_kinematics.errors.InputError`)."""
     if not 0.0 < args.timeout <= 3600.0:
-        raise InputError(f'--timeout = {args.timeout!r} s; allowed: 0 < timeout <= 3600 s')
+        raise InputError(f'--timeout = {args.timeout:.12g} s; allowed: 0 < timeout <= 3600 s')
     if not 0.0 < args.progress <= 3600.0:  # NaN printed nothing, 0 or less a line per feedback
-        raise InputError(f'--progress = {args.progress!r} s; allowed: 0 < progress <= 3600 s')
+        raise InputError(f'--progress = {args.progress:.12g} s; allowed: 0 < progress <= 3600 s')
     sample_rate(args.rate)
     margin_of(args)
 

@@ -38,12 +38,14 @@ def add_margin(p: argparse.ArgumentParser, what: str) -> None:
 
 
 def margin_of(args: argparse.Namespace) -> float:
-    """``--margin`` [m] (:data:`MARGIN` when not given), refused before any work outside [0, 1] m
-    (:func:`~gpr_kinematics.safety.clearance.check_numbers`, which names a margin typed in mm)."""
-    from ..safety.clearance import BASE_RATE, TOLERANCE, check_numbers
-    margin = MARGIN if args.margin is None else args.margin
-    check_numbers(margin, TOLERANCE, BASE_RATE)
-    return float(margin)
+    """``--margin`` [m] (:data:`MARGIN` when not given), refused before any work outside [0, 1] m, named as typed
+    (:func:`~gpr_kinematics.safety.clearance.check_length`, which names a margin typed in mm)."""
+    from ..safety.clearance import check_length
+    from ..safety.margin import MARGIN_RANGE
+    if args.margin is None:
+        return MARGIN
+    check_length('--margin', args.margin, *MARGIN_RANGE, shown=f'{args.margin:.12g}')
+    return float(args.margin)
 
 
 def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: float, command: str,

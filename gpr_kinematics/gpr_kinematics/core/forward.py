@@ -8,10 +8,9 @@ Bratovanov & Sotirov §IV-V (``docs/references.md``); frames and conventions in 
 3. the rigid transform with ``P_k = Rot r_k(X) + t`` and the naive pose of the same rods
    (:func:`gpr_kinematics.core.platform_pose.platform_pose`); the *centre shift* is ``t - (0, 0, z_naive)``.
 
-One driver, :func:`_forward`, serves a batch (vectorised over ``N``) and runs the same kernels on floats;
-:func:`forward` takes the one-pose path (:mod:`gpr_kinematics.core.single`, :func:`one_result`), which performs the
-driver's floating-point operations in the same order: the results are equal to the last bit, and equal to a batch
-row to rounding (~1e-16).
+One driver, :func:`_forward`, serves a batch (vectorised over ``N``) and the same kernels on floats; :func:`forward`
+takes the one-pose path (:mod:`gpr_kinematics.core.single`, :func:`one_result`), with the driver's floating-point
+operations in the same order: results equal to the last bit, and to a batch row to rounding (~1e-16).
 
 >>> import math
 >>> fk = forward([0.5, 0.503, 0.498])
@@ -166,16 +165,17 @@ def side_lengths(ops: Ops, P: tuple[list[Value], list[Value], list[Value]]) -> l
     return out
 
 
-def tilt_words(tilt: float, limit: float) -> tuple[str, str]:
-    """``'<tilt> rad (<deg> deg)'`` and ``'<limit> rad (<deg> deg)'``, told apart in both units."""
-    (shown, end), (deg, deg_end) = apart(tilt, limit, 9), apart(math.degrees(tilt), math.degrees(limit))
-    return f'{shown} rad ({deg} deg)', f'{end} rad ({deg_end} deg)'
+def tilt_words(tilt: float, limit: float, degrees: bool = False) -> tuple[str, str]:
+    """``'<tilt> rad (<deg> deg)'`` and ``'<limit> rad (<deg> deg)'``, told apart (``degrees``: degrees first)."""
+    (r, r_end), (d, d_end) = apart(tilt, limit, 9), apart(math.degrees(tilt), math.degrees(limit))
+    w = (f'{r} rad', f'{d} deg', f'{r_end} rad', f'{d_end} deg')
+    a, b, c, e = (w[1], w[0], w[3], w[2]) if degrees else w
+    return f'{a} ({b})', f'{c} ({e})'
 
 
-def beyond_tilt(tilt: float, limit: float, allowed: str = '|tilt|') -> str:
+def beyond_tilt(tilt: float, limit: float, allowed: str = '|tilt|', degrees: bool = False) -> str:
     """``'<tilt> rad (<deg> deg) is beyond the tilt limit; allowed: <allowed> <= <limit> rad (<deg> deg)'``."""
-    shown, end = tilt_words(tilt, limit)
-    return f'{shown} is beyond the tilt limit; allowed: {allowed} <= {end}'
+    return '{0[0]} is beyond the tilt limit; allowed: {1} <= {0[1]}'.format(tilt_words(tilt, limit, degrees), allowed)
 
 
 def _check_naive_tilt(ops: Ops, geo: MachineGeometry, q: Sequence[Value], config: GprConfig) -> NaiveState:

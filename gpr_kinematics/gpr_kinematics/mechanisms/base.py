@@ -1,28 +1,25 @@
-"""The common interface of parallel mechanisms; the helpers every analysis uses are re-exported here
-(:mod:`.rotations`, :mod:`.conditioning`).
+"""Parallel mechanisms' common interface; every analysis' helpers re-exported (:mod:`.rotations`, :mod:`.conditioning`).
 
-A :class:`Mechanism` maps platform poses to actuated-joint values (inverse kinematics) and platform
-twists to joint rates (inverse Jacobian). Conventions, shared by every mechanism of the package:
+A :class:`Mechanism` maps platform poses to actuated-joint values (inverse kinematics) and platform twists to joint
+rates (inverse Jacobian). Conventions, shared by every mechanism of the package:
 
-- A *pose* is a 6-vector ``(x, y, z, A, B, C)`` in SI units (m, rad): the position of the platform
-  frame's origin in the base frame and three Euler angles whose convention each mechanism names in
-  :attr:`Mechanism.euler_convention` (scipy notation: lower case = extrinsic, upper case = intrinsic).
-  Batches are ``(N, 6)`` arrays.
-- A *twist* is ``(v_x, v_y, v_z, w_x, w_y, w_z)``: the velocity of the platform origin and the angular
-  velocity of the platform, **both in the base frame**. The inverse Jacobian ``(N, n, 6)`` maps twists to
-  the rates of the ``n`` actuated joints (m/s for prismatic/distance joints, rad/s for angular ones).
-- A mechanism with fewer than six degrees of freedom (3-UPU, 3-RPS tripod, GPR) has
-  ``m = len(pose_variables)`` independent pose coordinates; the other pose components are outcomes
-  (parasitic motions) that the mechanism computes: :meth:`Mechanism.complete_pose` returns the pose it
-  actually reaches for the requested coordinates. :meth:`Mechanism.motion_basis` ``(N, 6, m)`` gives the
-  twist produced by a unit rate of each coordinate, so ``inverse_jacobian @ motion_basis`` is the square
-  Jacobian ``dq/du`` used for conditioning (for six-DOF mechanisms the coordinates' rates are the twist
-  itself and the basis is the identity).
+- A *pose* is a 6-vector ``(x, y, z, A, B, C)`` in SI units (m, rad): the position of the platform frame's origin in the
+  base frame and three Euler angles whose convention each mechanism names in :attr:`Mechanism.euler_convention` (scipy
+  notation: lower case = extrinsic, upper case = intrinsic). Batches are ``(N, 6)`` arrays.
+- A *twist* is ``(v_x, v_y, v_z, w_x, w_y, w_z)``: the velocity of the platform origin and the angular velocity of the
+  platform, **both in the base frame**. The inverse Jacobian ``(N, n, 6)`` maps twists to the rates of the ``n``
+  actuated joints (m/s for prismatic/distance joints, rad/s for angular ones).
+- A mechanism with fewer than six degrees of freedom (3-UPU, 3-RPS tripod, GPR) has ``m = len(pose_variables)``
+  independent pose coordinates; the other pose components are outcomes (parasitic motions) that the mechanism computes:
+  :meth:`Mechanism.complete_pose` returns the pose it actually reaches for the requested coordinates.
+  :meth:`Mechanism.motion_basis` ``(N, 6, m)`` gives the twist produced by a unit rate of each coordinate, so
+  ``inverse_jacobian @ motion_basis`` is the square Jacobian ``dq/du`` used for conditioning (for six-DOF mechanisms the
+  coordinates' rates are the twist itself and the basis is the identity).
 
-Homogenisation (Toz & Kucuk §4.3, ``docs/references.md``, characteristic length ``L``): the
-angular columns of an inverse Jacobian are divided by ``L`` (an angular velocity ``w`` becomes the
-velocity ``L w``), and rows of angular joints are multiplied by ``L`` (a joint rate ``theta'`` becomes
-``L theta'``), so every entry is dimensionless and singular values compare lengths with lengths.
+Homogenisation (Toz & Kucuk §4.3, ``docs/references.md``, characteristic length ``L``): the angular columns of an
+inverse Jacobian are divided by ``L`` (an angular velocity ``w`` becomes the velocity ``L w``), and rows of angular
+joints are multiplied by ``L`` (a joint rate ``theta'`` becomes ``L theta'``), so every entry is dimensionless and
+singular values compare lengths with lengths.
 """
 from __future__ import annotations
 
@@ -43,6 +40,7 @@ from ..core.rotations import (
     rotation_from_vector,
     rotation_vector,
 )
+from ..core.stroke import within_as_millimetres
 from ..errors import ConvergenceError, InputError, LimitError, SingularityError, brief
 from ..inputs.validation import MAX_COORDINATE, bounded, difference_step, float_array, newton_settings, number_rows
 from .conditioning import (
@@ -284,13 +282,15 @@ class Mechanism(abc.ABC):
         return np.asarray(~np.any(self._outside(joints)[1], axis=-1))
 
     def check_limits(self, joints: Any) -> None:
-        """Raise :class:`LimitError` naming the first joint outside its limits."""
+        """Raise :class:`LimitError` naming the first joint outside its limits (within them as mm: hinted so)."""
         q, bad, lim = self._outside(joints)
         if np.any(bad):
             row, j = np.argwhere(bad)[0]
+            (lo, hi), value = lim[j].tolist(), float(q[row, j])
             unit = 'rad' if self.joint_types[j] in ANGULAR_JOINTS else 'm'
-            raise LimitError(f'{self.name}: joint {self.joint_names[j]} = {q[row, j]:.6g} {unit} is outside '
-                             f'its limits [{lim[j, 0]:.6g}, {lim[j, 1]:.6g}] {unit}')
+            mm = ' (millimetres given as metres?)' if unit == 'm' and within_as_millimetres(value, lo, hi) else ''
+            raise LimitError(f'{self.name}: joint {self.joint_names[j]} = {value:.6g} {unit} is outside '
+                             f'its limits [{lo:.6g}, {hi:.6g}] {unit}{mm}')
 
     # ------------------------------------------------------------------ geometry parameters
     def parameters(self) -> dict[str, np.ndarray]:

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -116,15 +117,22 @@ def _windows_mask(windows: Sequence[tuple[float, float]], t0: Array, t1: Array, 
     return ok
 
 
+def check_length(name: str, value: Any, lo: float, hi: float, shown: str | None = None) -> None:
+    """``value`` in [``lo``, ``hi``] m, else :class:`~gpr_kinematics.errors.InputError` naming ``name`` and the value
+    (``shown``: as the user typed it, a command line's ``--margin = 5``; else :func:`~gpr_kinematics.errors.brief`),
+    with the hint of millimetres typed as metres where they would be within it."""
+    v = plain_number(value)
+    if not lo <= v <= hi:
+        mm = f' ({v:g} mm? give {v / 1000.0:g})' if hi < v <= 1000.0 * hi else ''  # --margin 5 for 5 mm
+        raise InputError(f'{name} = {brief(value) if shown is None else shown} is invalid; allowed: metres, at least '
+                         f'{lo:g} and at most {hi:g}{mm}')
+
+
 def check_numbers(margin: float, tolerance: float, rate: float) -> None:
     """The margin in [0, 1] m, the tolerance in [:data:`MIN_TOLERANCE`, 1] m and the rate in (0, 1000] Hz; else
     :class:`~gpr_kinematics.errors.InputError` naming the value (a finer tolerance runs for minutes)."""
-    for name, value, lo, hi in (('margin', margin, *MARGIN_RANGE), ('tolerance', tolerance, MIN_TOLERANCE, 1.0)):
-        if not lo <= plain_number(value) <= hi:
-            v = plain_number(value)
-            mm = f' ({v:g} mm? give {v / 1000.0:g})' if hi < v <= 1000.0 * hi else ''  # --margin 5 for 5 mm
-            raise InputError(f'{name} = {brief(value)} is invalid; allowed: metres, at least {lo:g} and at most '
-                             f'{hi:g}{mm}')
+    check_length('margin', margin, *MARGIN_RANGE)
+    check_length('tolerance', tolerance, MIN_TOLERANCE, 1.0)
     if not 0.0 < plain_number(rate) <= 1000.0:
         raise InputError(f'rate = {brief(rate)} is invalid; allowed: 0 < rate <= 1000 Hz')
 
