@@ -475,10 +475,10 @@ def test_the_3upu_study_volumes_of_the_docs_need_its_box(capsys, box, volumes):
 
 
 @pytest.mark.parametrize('stopped, caught, status, said', [
-    ('box limit (100 boxes, shared among the parts); interrupted', None, 130,
-     'box limit (100 boxes, shared among the parts); interrupted'),   # the parts' reasons joined
-    ('box limit (100 boxes, shared among the parts); interrupted', 15, 143,
-     'box limit (100 boxes, shared among the parts); terminated'),
+    ('interrupted; box limit (100 boxes, shared among the parts)', None, 130,
+     'interrupted; box limit (100 boxes, shared among the parts)'),   # the parts' reasons joined, the signal's first
+    ('interrupted; box limit (100 boxes, shared among the parts)', 15, 143,
+     'terminated; box limit (100 boxes, shared among the parts)'),
     ('interrupted', None, 130, 'interrupted'),
     ('interrupted', 15, 143, 'terminated'),
     ('interrupted', 2, 130, 'interrupted'),
@@ -504,9 +504,12 @@ def test_the_status_of_a_stop_by_a_signal_whatever_else_stopped_parts(capsys, mo
     monkeypatch.setattr(ws, 'approximate', stopped_run)
     code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.1', '--json')
     assert code == status and json.loads(out)['stopped'] == said
-    if status:
-        word = 'terminated' if caught == 15 else 'interrupted'
-        assert err.startswith(f'gpr workspace: {word}{"" if said == word else f" ({said})"} after '), err
+    word = 'terminated' if caught == 15 else 'interrupted'
+    if status:   # the parts' own limits beside the signal ('interrupted (box limit (...); interrupted)' before)
+        also = '' if said == word else f' (also stopped by: {said.removeprefix(f"{word}; ")})'
+        assert err.startswith(f'gpr workspace: {word}{also} after '), err
+    else:        # a limit alone: no signal, the limit named
+        assert err.startswith(f'gpr workspace: interrupted ({said}) after '), err
 
 
 def _children(pid):

@@ -165,6 +165,11 @@ def test_a_run_names_every_reason_its_parts_stopped_for():
                    'box limit (5000 boxes, shared among the parts)'):
         out.merge(Outcome(stopped=reason), keep_outside=False)
     assert out.stopped == 'box limit (5000 boxes, shared among the parts); time limit (10 s)'
+    # a signal's stop first: Ctrl-C read 'box limit (10000000 boxes, shared among the parts); interrupted' at 1.2
+    # million boxes, as if the limit had ended the run
+    out.stop('interrupted')
+    out.merge(Outcome(stopped='interrupted'), keep_outside=False)
+    assert out.stopped == 'interrupted; box limit (5000 boxes, shared among the parts); time limit (10 s)'
     model = load_workspace_model(config_path('mechanisms/tripod_3rps.yaml'))
     res = approximate(model, 0.0005, chunk_size=1024, parts=8, max_boxes=4000, max_seconds=60)
     assert res.interrupted and res.stopped == 'box limit (4000 boxes, shared among the parts)', res.stopped

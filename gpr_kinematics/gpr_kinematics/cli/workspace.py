@@ -205,8 +205,10 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f'gpr workspace: warning: no feasible point among {nodes}: the workspace may lie between '
                          f'them (method {args.method}, not certified; {more}, or --method covering)\n')
     if result.interrupted:
-        said = 'terminated' if 'terminated' in result.stopped.split('; ') else 'interrupted'
-        why = '' if result.stopped == said else f' ({result.stopped})'
+        reasons = result.stopped.split('; ')
+        said = 'terminated' if 'terminated' in reasons else 'interrupted'
+        others = '; '.join(r for r in reasons if r not in ('', said))   # a signal's stop: the parts' limits beside
+        why = '' if not others else f' (also stopped by: {others})' if said in reasons else f' ({result.stopped})'
         sys.stderr.write(f'gpr workspace: {said}{why} after {result.seconds:.1f} s; the unexamined boxes '
                          'count as boundary boxes\n')
     # stopped by a signal: what was proved is kept, and the status says so (a time or box limit is a result: 0)

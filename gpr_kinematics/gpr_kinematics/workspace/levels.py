@@ -34,6 +34,10 @@ def distribute_at(chunk: int, parts: int = PARTS) -> int:
     return parts * max(chunk // 16, 1)
 
 
+#: The reasons a signal gives (``terminated``: SIGTERM, as the command line renames ``interrupted``).
+SIGNALLED = ('interrupted', 'terminated')
+
+
 @dataclass
 class Outcome:
     """What some levels of a covering decided, and what is left (``frontier``; empty when done)."""
@@ -64,9 +68,12 @@ class Outcome:
 
     def stop(self, reason: str) -> None:
         """Add a reason the run stopped, once (parts stop for reasons of their own: the first no longer hides the
-        others, as a part's share of the box limit hid the time limit that ended the run)."""
-        if reason and reason not in self.stopped.split('; '):
-            self.stopped = f'{self.stopped}; {reason}' if self.stopped else reason
+        others, as a part's share of the box limit hid the time limit that ended the run); a signal's first (Ctrl-C
+        read ``box limit (10000000 boxes, shared among the parts); interrupted`` at 1.2 million boxes)."""
+        reasons = [r for r in self.stopped.split('; ') if r]
+        if reason and reason not in reasons:
+            reasons.insert(0 if reason in SIGNALLED else len(reasons), reason)
+            self.stopped = '; '.join(reasons)
 
 
 def run_levels(
