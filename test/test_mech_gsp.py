@@ -205,6 +205,30 @@ def test_a1_singular_when_lines_parallel():
     np.testing.assert_allclose(mech.inverse_jacobian(tilted), twist_fd(mech, tilted[None].copy()), atol=2e-8)
 
 
+def test_a1_keeps_every_digit_of_small_angles_and_its_row_stays_a_unit_vector():
+    """``arccos(R t . s)`` lost a small angle's digits (1e-7 rad read 2.3 % low, 1e-8 read 0 and its row infinite:
+    'the lines are parallel'): for the same mechanism turned by A about x, the A1 angle is A to rounding of A itself
+    (the lines start parallel), in the batch and the one-pose paths, and its row ``-(R t x s) / sin(theta)`` has
+    norm 1 (unit lines), the mechanism regular."""
+    cons = [parse_constraint({'type': 'D1', 'A_i': [math.cos(a), math.sin(a), 0], 'B_i': [0.5 * math.cos(a),
+                                                                                            0.5 * math.sin(a), 0]},
+                             f'c{k}') for k, a in enumerate(np.linspace(0, 2 * math.pi, 6, endpoint=False)[:5])]
+    cons.append(parse_constraint({'type': 'A1', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1], 'B_i': [0, 0, 0],
+                                  'B_j': [0, 0, 1]}, 'a1'))
+    mech = GeneralizedStewartPlatform(cons)
+    angles = np.array([1e-3, 1e-5, 1e-6, 1e-7, 1e-8, 1.4e-8, 1e-12, -1e-9, math.pi - 1e-9])
+    poses = np.column_stack([np.zeros((angles.size, 2)), np.ones(angles.size), angles, np.zeros((angles.size, 2))])
+    batch = mech.inverse_kinematics(poses)[:, 5]
+    one = np.array([mech.inverse_kinematics(p)[5] for p in poses])
+    truth = np.where(angles > math.pi / 2, angles, np.abs(angles))   # the angle between the lines, in [0, pi]
+    np.testing.assert_allclose(batch, truth, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(one, truth, rtol=1e-15, atol=0)
+    rows = mech.inverse_jacobian(poses)[:, 5, 3:]
+    np.testing.assert_allclose(np.linalg.norm(rows, axis=-1), 1.0, rtol=1e-15)
+    assert list(mech.singularity(poses)) == [''] * angles.size   # no row undefined ('the lines are parallel')
+    np.testing.assert_allclose(mech.inverse_jacobian(poses[0]), twist_fd(mech, poses[:1].copy()), atol=2e-8)
+
+
 def _paper_dict() -> dict:
     return yaml.safe_load(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml').read_text())
 

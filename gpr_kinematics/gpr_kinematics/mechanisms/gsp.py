@@ -26,7 +26,8 @@ with ``w_perp`` the component of ``v`` perpendicular to the line, ``c`` the cros
   in eq. (14), ``((v x s) x R B_i) / d``, does not match finite differences; this form does.
 - D4 (eq. 15): with ``n = R t x s``, ``f = v . n``, ``g = |n|``:
   ``sign(f) [n / g, (R B_i x n + R t x (s x v)) / g - f (R t x (s x n)) / g^3]``.
-- A1 (eq. 16): ``[0, -(R t x s) / sin(theta)]``.
+- A1 (eq. 16): ``[0, -(R t x s) / sin(theta)]``, ``theta = atan2(|R t x s|, R t . s)`` (eq. (6)'s ``acos`` loses
+  the angle's digits near 0 and pi).
 
 The rotation is ``R = Rz(C) Ry(B) Rx(A)`` (roll-pitch-yaw, scipy ``from_euler('xyz', [A, B, C])``), the
 convention under which the paper's numerical examples reproduce; another convention can be named in
@@ -320,8 +321,9 @@ class GeneralizedStewartPlatform(Mechanism):
                 with np.errstate(divide='ignore', invalid='ignore'):   # parallel lines: the distance |v x s|
                     q[:, idx] = np.where(g > 0, np.abs(_dot(vi, n)) / g,
                                          np.linalg.norm(_cross(vi, np.broadcast_to(s[idx], vi.shape)), axis=-1))
-            else:  # A1
-                q[:, idx] = np.arccos(np.clip(_dot(Rt[:, idx], s[idx]), -1.0, 1.0))
+            else:  # A1: atan2(|R t x s|, R t . s), every digit near 0 and pi (arccos lost them)
+                c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))
+                q[:, idx] = np.arctan2(np.sqrt(_dot(c, c)), _dot(Rt[:, idx], s[idx]))
         return q
 
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
@@ -371,12 +373,10 @@ class GeneralizedStewartPlatform(Mechanism):
                     J[:, idx, :3] = sgi * n
                     J[:, idx, 3:] = sgi * ((_cross(Rbi, n) + _cross(Rti, _cross(si, vi)))
                                            - (f * gi * gi) * _cross(Rti, _cross(si, n)))
-                else:  # A1
-                    Rti = Rt[:, idx]
-                    cos = np.clip(_dot(Rti, s[idx]), -1.0, 1.0)
+                else:  # A1: -(R t x s) / sin(theta), sin(theta) = |R t x s| (not sqrt(1 - cos^2): no digits near 0)
+                    c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))
                     J[:, idx, :3] = 0.0
-                    J[:, idx, 3:] = _cross(Rti, np.broadcast_to(s[idx], Rti.shape)) * (
-                        -1.0 / np.sqrt(1.0 - cos * cos))[..., None]
+                    J[:, idx, 3:] = c * (-1.0 / np.sqrt(_dot(c, c)))[..., None]
         return J
 
     def _scalar(self, p: list[float], R: list[list[float]], jacobian: bool
