@@ -471,3 +471,35 @@ def test_parameters_of_a_mixed_gsp_round_trip_and_take_errors_on_the_points_it_h
         twice[key][5] = twice[key][4]
     with pytest.raises(InputError, match=r'constraints 5 and 6 \(theta4, theta5\) are one A1 between the same points'):
         gsp.with_parameters(twice)
+
+
+def test_the_exact_deviation_follows_its_branch_and_is_refused_where_it_ends():
+    """A solve from the nominal pose alone converged on another assembly branch: the paper's GSP at its pose under an
+    A1 error of 0.5 deg read 45 mm and 21 deg off (exit 0), where 0.4 deg was refused, because the branch through
+    the nominal pose ends (a fold) near 0.36 deg. Followed as the error grows, 0.3 deg is solved on its branch (its
+    Jacobian's determinant of the nominal's sign, the deviation continuous with 0.1 and 0.2 deg and second order
+    off the linearised one) and 0.5 deg refused, naming how far the path got."""
+    from gpr_kinematics.errors import ConvergenceError
+    from gpr_kinematics.mechanisms.accuracy import accuracy_analysis
+    gsp = load_mechanism(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml'))
+    pose = np.array([7e-3, -8e-3, 0.124, 2 * DEG, 5 * DEG, -5 * DEG])
+    q = gsp.inverse_kinematics(pose)
+    det0 = np.linalg.det(gsp.task_jacobian(pose[None]))[0]
+
+    def error(deg: float) -> np.ndarray:
+        e = np.zeros(6)
+        e[4] = deg * DEG
+        return e
+
+    jumped = gsp.forward_kinematics((q + error(0.5))[None], pose[None], tol=1e-13)[0]   # the solve of before
+    assert np.linalg.norm(jumped[:3] - pose[:3]) > 0.04
+    with pytest.raises(ConvergenceError, match=r'followed from the nominal pose as its errors grow, forward '
+                                               r'kinematics at 75 % of them'):
+        accuracy_analysis(gsp, pose, error(0.5))
+    deviations = [accuracy_analysis(gsp, pose, error(d)) for d in (0.1, 0.2, 0.3)]
+    x = [r.exact[0] for r in deviations]
+    assert all(np.sign(np.linalg.det(gsp.task_jacobian(r.exact_poses))[0]) == np.sign(det0) for r in deviations)
+    assert np.linalg.norm(x[2] - x[1]) < 2.0 * np.linalg.norm(x[1] - x[0]) + 1e-3   # no jump between the steps
+    lin = deviations[0].linearized[0]
+    assert np.linalg.norm(x[0] - lin) < 0.2 * np.linalg.norm(lin)   # second order at 0.1 deg
+    np.testing.assert_allclose(gsp.inverse_kinematics(deviations[2].exact_poses[0]), q + error(0.3), atol=1e-12)
