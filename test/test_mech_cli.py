@@ -90,7 +90,7 @@ def test_singular_pose_reported(capsys):
     code, out, _ = run(capsys, 'mechanism', 'stewart_alwan.yaml', '--pose', '0', '0', '0', '0.1', '0', '0', '--json')
     data = json.loads(out)
     assert code == 0 and data['singular'] is True
-    assert data['condition_number'] is None or data['condition_number'] > 1e9
+    assert data['condition_number'] == 'inf' or data['condition_number'] > 1e9
 
 
 def test_accuracy_json_trajectory(capsys):
@@ -456,16 +456,17 @@ def test_the_default_heights_come_from_length_limits_or_the_mechanism_s_size(cap
     assert values[-1] == pytest.approx(top, rel=1e-12) and len(values) == 51
 
 
-def test_dexterity_json_writes_an_infinite_condition_number_as_null(capsys):
+def test_dexterity_json_writes_an_infinite_condition_number_as_inf(capsys):
     """The 3-UPU at z = 0 (coplanar limbs) has an infinite condition number: ``"condition_number": [-1.0, -1.0,
-    -1.0]`` where ``gpr mechanism --json`` writes null; a grid's rows too."""
+    -1.0]``, then null, where every other number that is not finite is the text "inf" (docs/architecture.md); a
+    grid's rows too."""
     code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--vary', 'x', '-0.05', '0.05', '3', '--json')
     assert code == 0, err
-    assert json.loads(out)['condition_number'] == [None, None, None]
+    assert json.loads(out)['condition_number'] == ['inf', 'inf', 'inf']
     code, out, err = run(capsys, 'dexterity', 'upu3.yaml', '--vary', 'x', '-0.05', '0.05', '2', '--vary2', 'z', '0',
                          '0.2', '2', '--json')
     data = json.loads(out)['condition_number']
-    assert code == 0 and [row[0] for row in data] == [None, None] and all(c > 1 for c in (data[0][1], data[1][1]))
+    assert code == 0 and [row[0] for row in data] == ['inf', 'inf'] and all(c > 1 for c in (data[0][1], data[1][1]))
 
 
 @pytest.mark.parametrize('command', ['mechanism', 'accuracy'])

@@ -411,7 +411,7 @@ def test_crossing_d4_lines_give_a_zero_row_an_infinite_condition_number_and_a_na
     mech = load_mechanism(config_path('mechanisms/gsp_d1d2d3d4a1a1.yaml'))
     res = analyse_pose(mech, [0.0] * 6)
     assert res.joints[3].value == 0.0 and not np.any(res.inverse_jacobian[3])
-    assert res.condition_number is None and res.dexterity == 0.0 and res.singular
+    assert res.condition_number == np.inf and res.dexterity == 0.0 and res.singular
     assert res.singularity == 'd4 (D4): the lines K and L cross (d = 0): its row is zero, the rate of d = |f| / g is ' \
         'not defined'
     J, named = mech.jacobian_and_singularity(np.zeros((1, 6)))   # a dexterity map's: the same

@@ -339,14 +339,15 @@ def test_upu3_file_without_azimuths_places_the_limbs_120_degrees_apart_like_the_
     np.testing.assert_allclose(mech.inverse_kinematics(poses), model.evaluate(pts), atol=1e-15)
 
 
-def test_a_dexterity_record_writes_an_infinite_condition_number_as_none(tripod):
+def test_a_dexterity_record_writes_an_infinite_condition_number_as_inf(tripod):
     """The tripod at z = 0 (legs of zero length) is singular, its condition number infinite: the record that
-    ``gpr dexterity --json`` prints holds None there (JSON's null, as ``gpr mechanism``'s; it was -1) and the finite
-    ones as they are."""
+    ``gpr dexterity --json`` prints holds inf there (JSON's "inf", as every command's; it was -1, then null) and the
+    finite ones as they are."""
+    from gpr_kinematics.cli.output import jsonable
     dmap = dexterity_sweep(tripod, [0, 0, 0.1, 0, 0, 0], 'z', [0.0, 0.05, 0.1])
     assert dmap.singular.tolist() == [True, False, False] and np.isinf(dmap.condition_number[0])
     record = dmap.record('tripod_3rps')
-    assert record.condition_number[0] is None
+    assert record.condition_number[0] == np.inf and jsonable(record)['condition_number'][0] == 'inf'
     assert record.condition_number[1:].tolist() == dmap.condition_number[1:].tolist()
     assert all(c >= 1.0 for c in record.condition_number[1:])
 

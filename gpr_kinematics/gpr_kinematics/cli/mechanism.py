@@ -49,8 +49,7 @@ def _mechanism(args: argparse.Namespace) -> int:
     print(f'homogenized inverse Jacobian (characteristic length {mech.characteristic_length:g} m):')
     for row in res.homogenized_inverse_jacobian:
         print('  ' + ' '.join(number_text(v, '11.6f') for v in row))
-    cond = float('inf') if res.condition_number is None else res.condition_number
-    print(f'condition number {cond:.6g}, dexterity {res.dexterity:.6g}, '
+    print(f'condition number {res.condition_number:.6g}, dexterity {res.dexterity:.6g}, '
           f'singular: {"yes" if res.singular else "no"}' + (f' ({res.singularity})' if res.singularity else ''))
     return 0
 

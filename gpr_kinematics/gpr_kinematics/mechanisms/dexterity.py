@@ -45,19 +45,18 @@ class DexterityMap:
     def record(self, kind: str) -> DexterityRecord:
         """The map as ``gpr dexterity --json`` prints it (:class:`DexterityRecord`); ``kind`` is the mechanism's
         type."""
-        cond = self.condition_number.astype(object)
-        cond[~np.isfinite(self.condition_number)] = None
         return DexterityRecord(
             mechanism=self.mechanism, variable=self.variable, values=self.values, dexterity=self.dexterity,
-            within_limits=self.within_limits, singular=self.singular, condition_number=cond,
+            within_limits=self.within_limits, singular=self.singular, condition_number=self.condition_number,
             variable2=self.variable2, values2=self.values2, type=kind)
 
 
 @dataclass(frozen=True)
 class DexterityRecord:
     """A :class:`DexterityMap` without its poses: the ``values`` of ``variable`` (and ``values2`` of ``variable2``
-    on a grid, else ``None``), the ``dexterity``, ``within_limits``, ``singular`` and ``condition_number`` (``None``
-    where infinite: JSON's null, as ``gpr mechanism``'s; it was -1) at each, and the mechanism's name and ``type``."""
+    on a grid, else ``None``), the ``dexterity``, ``within_limits``, ``singular`` and ``condition_number`` (``inf``
+    where infinite: JSON's ``"inf"``, as ``gpr mechanism``'s and every command's; it was -1, then null) at each, and
+    the mechanism's name and ``type``."""
 
     mechanism: str
     variable: str

@@ -35,11 +35,12 @@ class JointValue:
 @dataclass(frozen=True)
 class PoseAnalysis:
     """The analysis of one pose (module docstring): the ``mechanism``'s name and ``type``, its Euler convention, the
-    realised ``pose`` by component (m, rad) and which components are ``pose_variables``, the ``joints``, the
-    inverse Jacobian plain and homogenised, the ``characteristic_length`` [m], the homogenised task Jacobian, its
-    ``condition_number`` (``None``: infinite) and ``dexterity``, whether the pose is ``singular`` (and the named
-    ``singularity``, ``None`` when there is none), whether the joints are ``within_limits``, and for the tripod the
-    ``plane_residuals`` of its legs [m] (``None`` for the other mechanisms)."""
+    realised ``pose`` by component (m, rad) and which components are ``pose_variables``, the ``joints``, the inverse
+    Jacobian plain and homogenised, the ``characteristic_length`` [m], the homogenised task Jacobian, its
+    ``condition_number`` (``inf`` where singular: JSON's ``"inf"``, the package's rule) and ``dexterity``, whether
+    the pose is ``singular`` (and the named ``singularity``, ``None`` when there is none), whether the joints are
+    ``within_limits``, and for the tripod the ``plane_residuals`` of its legs [m] (``None`` for the other
+    mechanisms)."""
 
     mechanism: str
     type: str
@@ -51,7 +52,7 @@ class PoseAnalysis:
     homogenized_inverse_jacobian: Array
     characteristic_length: float
     homogenized_task_jacobian: Array
-    condition_number: float | None
+    condition_number: float
     dexterity: float
     singular: bool
     singularity: str | None
@@ -88,6 +89,6 @@ def analyse_pose(mech: Mechanism, pose: ArrayLike) -> PoseAnalysis:
         joints=_joints(mech, q), inverse_jacobian=rep.inverse_jacobian,
         homogenized_inverse_jacobian=rep.homogenized_inverse_jacobian,
         characteristic_length=mech.characteristic_length, homogenized_task_jacobian=rep.task_jacobian,
-        condition_number=float(rep.condition_number) if np.isfinite(rep.condition_number) else None,
+        condition_number=float(rep.condition_number),
         dexterity=rep.dexterity, singular=rep.singular, singularity=rep.singularity or None,
         within_limits=rep.within_limits, plane_residuals=None if residuals is None else residuals(full)[0])
