@@ -61,7 +61,13 @@ def test_the_plan_view_of_the_example_is_the_sampled_plan_and_the_cell():
     plan = plan_program(load_robot(), load_program(PROGRAM))
     cell = load_cell(CELL)
     view = plan_view(plan, cell)
-    assert [n for n, _ in view.outlines] == list(cell.names)
+    names = [n for n, _ in view.outlines]   # the cell's obstacles, then the wafers lying in stations
+    assert names[:len(cell.names)] == list(cell.names)
+    wafers = wafer_plan(plan).stations
+    assert names[len(cell.names):] == [w for w, _, _ in wafers] and wafers
+    k = plan.program.stations.index()[wafers[0][1]]   # a wafer's disc (150 mm) about its station
+    disc = dict(view.outlines)[wafers[0][0]]
+    assert np.allclose(np.linalg.norm(disc - plan.program.stations.stations.position[k, :2], axis=1), 0.15, atol=0.006)
     s = sample_plan(plan, RATE)
     arms = np.asarray(s.arm)
     carried = wafer_plan(plan).carried
@@ -72,7 +78,7 @@ def test_the_plan_view_of_the_example_is_the_sampled_plan_and_the_cell():
         assert np.array_equal(held, inside) and held.any() and not held.all()
     st = plan.program.stations.stations
     assert view.station_names == st.names and np.array_equal(view.stations, st.position[:, :2])
-    assert plan_view(plan, None).outlines == ()
+    assert [n for n, _ in plan_view(plan, None).outlines] == names[len(cell.names):]
 
 
 def test_the_figure_draws_the_plan_view_and_marks_the_closest_pair():
@@ -95,12 +101,35 @@ def test_the_figure_draws_the_plan_view_and_marks_the_closest_pair():
             assert np.allclose(patch.get_xy()[:len(poly)], poly * 1e3, rtol=0, atol=1e-9)
             red = patch.get_edgecolor()[:3] == (1.0, 0.0, 0.0)
             assert red == (name in clear.pairs[0].bodies), name
+            # above every other outline: a level chamber's walls share one outline from above (it was hidden)
+            assert patch.get_zorder() == (1.5 if red else 1.0)
         assert [t.get_text() for t in ax3.texts if t.get_color() == 'r'] == ['pm1/front_bottom']
         arm_path = dict((a, (xy, t)) for a, xy, t, _ in view.paths)['arm2']
         marks = {line.get_marker(): line for line in ax3.lines if line.get_marker() in ('v', 'x')}
+        assert marks['v'].get_label().startswith("arm2's wafer centre") and marks['v'].get_markeredgecolor() == 'C0'
         for marker, at in (('v', clear.pairs[0].time), ('x', report.collisions[0].time)):
             k = int(np.argmin(np.abs(arm_path[1] - at)))
             assert np.array_equal(np.column_stack([marks[marker].get_xdata(), marks[marker].get_ydata()])[0],
                                   arm_path[0][k] * 1e3)
+    finally:
+        plt.close(fig)
+
+
+def test_a_station_wafer_in_the_closest_pair_is_the_red_outline():
+    """The example robot program in the example cell comes closest between arm2's blade and a wafer lying in
+    chamber_b: the panel drew no wafer, so nothing was red; the wafer's disc is now, under the pair's name."""
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.safety.check import check_program
+    from gpr_kinematics.safety.plot import check_figure
+    plan = plan_program(load_robot(), load_program(config_path('programs/example_robot_program.yaml')))
+    cell = load_cell(CELL)
+    report, clear, slip = check_program(plan, cell)
+    wafer = [b for b in clear.pairs[0].bodies if b.startswith('wafer@')]
+    assert wafer, clear.pairs[0].bodies
+    fig = check_figure(clear, slip, report, None, plan_view(plan, cell))
+    try:
+        ax = fig.axes[2]
+        red = [t.get_text() for t in ax.texts if t.get_color() == 'r']
+        assert red == wafer
     finally:
         plt.close(fig)

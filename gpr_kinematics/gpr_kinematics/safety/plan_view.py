@@ -1,8 +1,9 @@
 """The cell seen from above, the third panel of ``gpr program check --plot``: where the numbers of the other two are.
 
-Each obstacle is drawn as its outline in the world's x-y plane, the convex hull of its corners (a box's eight; a
-cylinder's rims, :data:`RIM` points each) projected along z; a chamber is its walls (the boxes it is made of, its
-slit the gap between them). The blade's path is the wafer centre of the arm in use at :data:`RATE` samples a second
+Each obstacle and each wafer lying in a station (``wafer@STATION:...``, a body the check pairs with the robot's) is
+drawn as its outline in the world's x-y plane, the convex hull of its corners (a box's eight; a cylinder's rims,
+:data:`RIM` points each) projected along z; a chamber is its walls (the boxes it is made of, its slit the gap between
+them). The blade's path is the wafer centre of the arm in use at :data:`RATE` samples a second
 (:func:`~gpr_kinematics.robot.plan.sample_plan`), drawn thick while that arm carries a wafer
 (:func:`~.check.wafer_plan`'s windows) and thin while it is empty; the program's stations are their positions. Lengths
 in metres here, millimetres in the figure.
@@ -16,8 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull
 
+from .bodies import Body
 from .cell import Cell, Obstacle
-from .check import wafer_plan
+from .check import program_bodies, wafer_plan
 
 if TYPE_CHECKING:
     from ..robot.plan import ProgramPlan
@@ -32,10 +34,10 @@ RIM = 48
 
 @dataclass(frozen=True)
 class PlanView:
-    """``outlines``: per obstacle its name and the counter-clockwise polygon ``(K, 2)`` [m] of its outline from
-    above; ``paths``: per arm its name, the wafer centre ``(N, 2)`` [m] at the samples it is in use (``time (N,)``
-    [s]) and whether it carries a wafer there ``(N,)``; ``stations``: the program's names and positions ``(S, 2)``
-    [m]."""
+    """``outlines``: per obstacle (then per station wafer) its name and the counter-clockwise polygon ``(K, 2)`` [m] of
+    its outline from above; ``paths``: per arm its name, the wafer centre ``(N, 2)`` [m] at the samples it is in use
+    (``time (N,)`` [s]) and whether it carries a wafer there ``(N,)``; ``stations``: the program's names and
+    positions ``(S, 2)`` [m]."""
 
     outlines: tuple[tuple[str, Array], ...]
     paths: tuple[tuple[str, Array, Array, NDArray[np.bool_]], ...]
@@ -43,7 +45,7 @@ class PlanView:
     stations: Array
 
 
-def corners(ob: Obstacle) -> Array:
+def corners(ob: Obstacle | Body) -> Array:
     """The points whose hull is ``ob`` ``(K, 3)`` [m, cell frame]: a box's 8 corners ``c + R (+-a/2, +-b/2, +-h/2)``,
     a cylinder's two rims of radius ``r`` at ``+-l/2`` along its z (:data:`RIM` points each)."""
     if ob.kind == 'box':
@@ -57,7 +59,7 @@ def corners(ob: Obstacle) -> Array:
     return np.asarray(ob.position + local @ ob.rotation.T, dtype=float)
 
 
-def outline(ob: Obstacle) -> Array:
+def outline(ob: Obstacle | Body) -> Array:
     """``ob`` seen from above: the counter-clockwise convex hull ``(K, 2)`` [m] of its :func:`corners` in x-y (taken
     about its centre: a 1 mm box far from the origin keeps its digits). A body of at least 1 mm in each size
     (:mod:`.cell`) has an outline of positive area whatever its rotation."""
@@ -80,7 +82,7 @@ def plan_view(plan: ProgramPlan, cell: Cell | None) -> PlanView:
         for a, b in carried.get(arm, ()):
             held |= (times >= a) & (times <= b)
         paths.append((arm, np.asarray(s.wafer.position[used, :2], dtype=float), times, held))
-    obstacles = () if cell is None else cell.obstacles
+    fixed = [b for b in program_bodies(plan, cell)[0] if b.frame is None]   # the cell's, then the station wafers
     st = plan.program.stations.stations
-    return PlanView(tuple((o.name, outline(o)) for o in obstacles), tuple(paths), st.names,
+    return PlanView(tuple((b.name, outline(b)) for b in fixed), tuple(paths), st.names,
                     np.asarray(st.position[:, :2], dtype=float))

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .budget import BudgetReport
-from .check import SafetyReport
+from .check import STATION_WAFER, SafetyReport
 from .clearance import ClearanceReport
 from .plan_view import PlanView
 
@@ -123,44 +123,51 @@ def draw_plan_view(ax: Axes, view: PlanView, clear: ClearanceReport, report: Saf
     triangle) and, in an unsafe program, at the first approach below the margin (an x)."""
     closest = clear.pairs[0] if clear.pairs else None
     for name, poly in view.outlines:
-        near = closest is not None and name in closest.bodies
-        ax.fill(*(poly * 1e3).T, facecolor='#f4c7c3' if near else '0.88', edgecolor='r' if near else '0.45', lw=0.7,
-                zorder=1)
+        near = closest is not None and name in closest.bodies   # drawn above the others (a level chamber's walls
+        wafer = name.startswith(STATION_WAFER)                  # share one outline from above: it was hidden)
+        ax.fill(*(poly * 1e3).T, facecolor='#f4c7c3' if near else 'none' if wafer else '0.88',
+                edgecolor='r' if near else '0.6' if wafer else '0.45', lw=1.2 if near else 0.7,
+                zorder=1.5 if near else 1)
         if near:
             ax.annotate(name, (float(poly[:, 0].mean()) * 1e3, float(poly[:, 1].min()) * 1e3), xytext=(0, -3),
                         textcoords='offset points', fontsize=7, color='r', ha='center', va='top', zorder=4)
     for k, (arm, xy, _, held) in enumerate(view.paths):
         color = f'C{k}'
-        ax.plot(*(xy * 1e3).T, color=color, lw=0.6, zorder=2, label=f'{arm}: its wafer centre (empty blade)')
-        ax.plot(*(np.where(held[:, None], xy, np.nan) * 1e3).T, color=color, lw=2.0, zorder=2,
+        ax.plot(*(xy * 1e3).T, color=color, lw=0.6, alpha=0.8, zorder=2, label=f'{arm}: its wafer centre (empty blade)')
+        ax.plot(*(np.where(held[:, None], xy, np.nan) * 1e3).T, color=color, lw=2.0, alpha=0.6, zorder=2,
                 label=f'{arm} carrying a wafer')
     ax.plot(*(view.stations * 1e3).T, '+', color='k', ms=7, zorder=3, label='stations')
     for name, xy in zip(view.station_names, view.stations, strict=True):
         ax.annotate(f' {name}', xy * 1e3, fontsize=6, color='0.3', zorder=3)
     if closest is not None:
-        at = _where_arm(view, closest.bodies, closest.time)
+        arm, at = _where_arm(view, closest.bodies, closest.time)
         if at is not None:
-            ax.plot(*(at * 1e3), 'v', color='k', ms=8, zorder=5,
-                    label=f'its wafer centre at the least\nclearance ({" / ".join(closest.bodies)})')
+            ax.plot(*(at * 1e3), 'v', color='k', mec=_arm_colour(view, arm), mew=1.5, ms=8, zorder=5,
+                    label=f"{arm}'s wafer centre at the least\nclearance ({' / '.join(closest.bodies)})")
     if report.collisions:
         c = report.collisions[0]
-        at = _where_arm(view, c.bodies, c.time)
+        arm, at = _where_arm(view, c.bodies, c.time)
         if at is not None:
-            ax.plot(*(at * 1e3), 'x', color='r', ms=9, mew=2, zorder=5, label='first below the margin')
+            ax.plot(*(at * 1e3), 'x', color='r', ms=9, mew=2, zorder=5, label=f"{arm}'s, first below the margin")
     ax.set_aspect('equal', adjustable='datalim')
     ax.set_xlabel('x [mm] (world)')
     ax.set_ylabel('y [mm]')
-    ax.set_title('from above: obstacles, blade paths, stations', fontsize=9)
+    ax.set_title('from above: obstacles, wafers in stations (circles), blade paths, stations', fontsize=9)
     ax.legend(loc='upper center', bbox_to_anchor=(0.5, -0.1), fontsize=7, ncol=2)
 
 
-def _where_arm(view: PlanView, bodies: tuple[str, str], time: float) -> NDArray[np.float64] | None:
-    """The wafer centre [m] of the arm owning one of ``bodies`` (``arm1_link2``, ``arm2_wafer``) at the sample
-    nearest ``time`` among those it is in use; None for a pair of no arm's body."""
+def _where_arm(view: PlanView, bodies: tuple[str, str], time: float) -> tuple[str, NDArray[np.float64] | None]:
+    """The arm owning one of ``bodies`` (``arm1_link2``, ``arm2_wafer``) and its wafer centre [m] at the sample
+    nearest ``time`` among those it is in use; ``('', None)`` for a pair of no arm's body."""
     for arm, xy, t, _ in view.paths:
         if any(b == arm or b.startswith(f'{arm}_') for b in bodies) and t.size:
-            return np.asarray(xy[int(np.argmin(np.abs(t - time)))], dtype=float)
-    return None
+            return arm, np.asarray(xy[int(np.argmin(np.abs(t - time)))], dtype=float)
+    return '', None
+
+
+def _arm_colour(view: PlanView, arm: str) -> str:
+    """The colour of ``arm``'s path (:func:`draw_plan_view`)."""
+    return f'C{[a for a, *_ in view.paths].index(arm)}'
 
 
 #: A waypoint where a pick or place holds at its station (:attr:`~.check.MoveSafety.label`).
