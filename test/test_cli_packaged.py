@@ -92,9 +92,9 @@ def test_a_mistyped_folder_is_an_error_naming_the_packaged_name(capsys, elsewher
     status, out, err = run(capsys, *typo)
     assert status == 2 and out == '' and err.count('\n') == 1, err
     assert re.fullmatch(rf"gpr {' '.join(argv[:2]) if argv[0] in ('robot', 'program') else argv[0]}: error: "
-                        rf"[a-z ]+ file 'typo_dir/{re.escape(name)}' not found \(a path with a folder is read as "
-                        rf"given; only a bare name such as {re.escape(name)} is also looked up among the packaged "
-                        r'files\)\n', err), err
+                        rf"(--[a-z]+|[A-Z]+): [a-z ]+ file 'typo_dir/{re.escape(name)}' not found \(a path with a "
+                        rf"folder is read as given; only a bare name such as {re.escape(name)} is also looked up among "
+                        r'the packaged files\); allowed: a file that exists\n', err), err
 
 
 @pytest.mark.parametrize(('argv', 'kind', 'name', 'names'), [
@@ -118,7 +118,12 @@ def test_an_unknown_bare_name_is_an_error_naming_the_kind_and_its_packaged_files
                                                                                 names):
     status, out, err = run(capsys, *argv)
     assert status == 2 and out == '' and err.count('\n') == 1, err
-    assert err.endswith(f'{kind} file {name!r} not found, here nor among the packaged files: {names}\n'), err
+    # named by the option or the argument typed, with what is allowed (it named neither)
+    # (accuracy's FILE, a mechanism or a program, is looked up by the command itself: its first argument)
+    where = next((f'{a}: ' for a in argv if a.startswith('--') and argv[argv.index(a) + 1] == name), None) or \
+        {'calibrate': 'MEASUREMENTS: ', 'program': 'PROGRAM: '}.get(argv[0], '')
+    assert err.endswith(f'error: {where}{kind} file {name!r} not found, here nor among the packaged files; allowed: '
+                        f'a file that exists, or a packaged one: {names}\n'), err
 
 
 def test_the_budget_takes_a_packaged_program_or_mechanism_by_its_bare_name(capsys, elsewhere):
@@ -180,9 +185,10 @@ def test_the_rule_itself(elsewhere):
     assert packaged_file('upu3.yaml', MECHANISMS) == 'upu3.yaml' and packaged_file('', CELLS) == ''
     with pytest.raises(FileError, match=r"^mechanism file 'typo_dir/upu3\.yaml' not found \(a path with a folder is "
                                         r'read as given; only a bare name such as upu3\.yaml is also looked up among '
-                                        r'the packaged files\)$'):
+                                        r'the packaged files\); allowed: a file that exists$'):
         packaged_file('typo_dir/upu3.yaml', MECHANISMS)
-    with pytest.raises(FileError, match=r"^measurements file 'x\.csv' not found, here nor among the packaged files: "
+    with pytest.raises(FileError, match=r"^measurements file 'x\.csv' not found, here nor among the packaged files; "
+                                        r'allowed: a file that exists, or a packaged one: '
                                         r'synthetic_measurements\.csv$'):
         packaged_file('x.csv', MEASUREMENTS)
     assert {PROGRAMS.kind, TOLERANCES.kind} == {'program', 'tolerance table'}

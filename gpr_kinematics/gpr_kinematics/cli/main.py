@@ -228,8 +228,9 @@ def _main(argv: Sequence[str] | None) -> int:
     try:
         from ..core.stroke import typed_in_millimetres
         from .options import resolve_shipped
-        resolve_shipped(args)  # a shipped kind's bare name: the packaged file (cli.options.shipped)
-        distinct_outputs(args, command_parser(parser, args))
+        chosen = command_parser(parser, args)
+        resolve_shipped(args, chosen)  # a shipped kind's bare name: the packaged file (cli.options.shipped)
+        distinct_outputs(args, chosen)
         # no output may be a file the command read; all outputs or none; no "millimetres given as metres?" under a --mm
         # that converts every length the command takes (a file's of gpr accuracy keeps its hint under --mm)
         mm = bool(getattr(args, 'mm', False)) and bool(getattr(args, 'mm_converts_all', False))

@@ -145,15 +145,19 @@ def shipped(kind: Packaged) -> Callable[[str], ShippedName]:
     return path
 
 
-def resolve_shipped(args: argparse.Namespace) -> None:
+def resolve_shipped(args: argparse.Namespace, parser: argparse.ArgumentParser | None = None) -> None:
     """Replace every :class:`ShippedName` of ``args`` (alone or in a list) by the path to read
     (:func:`~gpr_kinematics.inputs.resources.packaged_file`: a local file, else a packaged one of its kind);
-    :class:`FileError` for a name that is neither."""
+    :class:`FileError` for a name that is neither, named as the command's ``parser`` names it (``--cell: ...``)."""
     def resolved(value: object) -> object:
         return packaged_file(str(value), value.kind) if isinstance(value, ShippedName) else value
 
     for dest, value in vars(args).items():
-        setattr(args, dest, [resolved(v) for v in value] if isinstance(value, list) else resolved(value))
+        try:
+            setattr(args, dest, [resolved(v) for v in value] if isinstance(value, list) else resolved(value))
+        except FileError as exc:
+            from .output import typed_name
+            raise FileError(f'{typed_name(parser, dest)}: {exc}') from None
 
 
 class RodLengths(argparse.Action):

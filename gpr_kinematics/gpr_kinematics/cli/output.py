@@ -115,7 +115,7 @@ def _existing(value: object) -> list[str]:
     return [v for v in _given(value) if os.path.exists(v)]
 
 
-def _typed(parser: argparse.ArgumentParser | None, dest: str) -> str:
+def typed_name(parser: argparse.ArgumentParser | None, dest: str) -> str:
     """How the user names the argument ``dest`` of ``parser``: its option (``--config``), else its metavar
     (``MEASUREMENTS``); ``dest`` in capitals without a parser."""
     for action in () if parser is None else parser._actions:
@@ -149,5 +149,5 @@ def distinct_outputs(args: argparse.Namespace, parser: argparse.ArgumentParser |
                 continue
             if same:
                 what = 'an input of this command' if other not in OUTPUT_OPTIONS else 'another output'
-                raise InputError(f'--{key} {out!r} is the same file as {_typed(parser, other)} {path!r} ({what}); '
+                raise InputError(f'--{key} {out!r} is the same file as {typed_name(parser, other)} {path!r} ({what}); '
                                  'allowed: an output that is none of the files the command reads or writes')

@@ -175,9 +175,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.force and args.trajectory is not None:
         raise InputError('--force writes the joint tables of a program that is not safe, and a trajectory is never '
                          'written for one; allowed: --force with --waypoints and/or --samples only')
-    for path in (args.waypoints, args.samples):
-        if path is not None:  # refused before the program is planned
-            check_table_path(path)
+    for option, path in (('--waypoints', args.waypoints), ('--samples', args.samples)):
+        if path is not None:  # refused before the program is planned, named by its option
+            check_table_path(path, option)
     margin = margin_of(args)
     at_rate = args.samples is not None or args.trajectory is not None
     sample_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)

@@ -110,8 +110,8 @@ def packaged_file(path: str | os.PathLike[str], kind: Packaged) -> str:
         base = os.path.basename(name)   # the example the message gives: the packaged file meant, if it is one
         raise FileError(f'{kind.kind} file {brief(name, QUOTED)} not found (a path with a folder is read as given; '
                         f'only a bare name such as {base if base in packaged else kind.example} is also looked up '
-                        'among the packaged files)')
+                        'among the packaged files); allowed: a file that exists')
     if name not in packaged:
-        raise FileError(f'{kind.kind} file {brief(name, QUOTED)} not found, here nor among the packaged files: '
-                        + ', '.join(sorted(packaged)))
+        raise FileError(f'{kind.kind} file {brief(name, QUOTED)} not found, here nor among the packaged files; '
+                        'allowed: a file that exists, or a packaged one: ' + ', '.join(sorted(packaged)))
     return str(packaged[name])

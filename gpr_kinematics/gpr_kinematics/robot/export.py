@@ -54,13 +54,13 @@ def sample_table(plan: ProgramPlan, sampled: PlanSamples) -> tuple[list[str], li
     return columns, rows
 
 
-def check_table_path(path: str | Path) -> Path:
+def check_table_path(path: str | Path, what: str = 'output file') -> Path:
     """The output ``path`` of a table, checked before any work: ``.csv`` or ``.json``, and writable
-    (:func:`gpr_kinematics.inputs.files.check_output`)."""
+    (:func:`gpr_kinematics.inputs.files.check_output`); ``what`` names it (the command line: its option)."""
     target = check_output(path, 'joint table')
     suffix = target.suffix.lower()
     if suffix not in ('.csv', '.json'):
-        raise ConfigError(f'output file {str(path)!r}: unknown type {suffix or "(none)"}; allowed: .csv or .json')
+        raise ConfigError(f'{what} {str(path)!r}: unknown type {suffix or "(none)"}; allowed: .csv or .json')
     return target
 
 
