@@ -131,10 +131,10 @@ def test_the_command_line_reads_millimetres_exactly(capsys):
     (['mobility', '0.3', '0.3', '0.3', '--dq', '0.2080000000001', '0', '0'],
      'q1 + dq1 = 0.5080000000001 m is outside the stroke [0, 0.508] m'),
     (['ik', '--height', '0.25', '--tilt', '2.00000006', '--azimuth', '0', '--deg'],
-     '--tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit; allowed: |tilt| <= 0.034906585 rad (2 deg)'),
-    (['sweep', '--max-tilt', '2.00000006', '--deg'],
-     '--max-tilt = 0.0349065861 rad (2.0000001 deg) is beyond the tilt limit; allowed: --max-tilt <= 0.034906585 rad '
-     '(2 deg)')])
+     '--tilt = 2.0000001 deg (0.0349065861 rad) is beyond the tilt limit; allowed: |tilt| <= 2 deg (0.034906585 rad)'),
+    (['sweep', '--max-tilt', '2.00000006', '--deg'],   # under --deg the degrees first (docs/core.md)
+     '--max-tilt = 2.0000001 deg (0.0349065861 rad) is beyond the tilt limit; allowed: --max-tilt <= 2 deg '
+     '(0.034906585 rad)')])
 def test_a_refusal_prints_the_value_apart_from_its_limit(capsys, argv, message):
     """"0.508 m is outside the stroke [0, 0.508] m" contradicted itself; the value takes the digits that tell it
     from the limit it passed (:func:`~gpr_kinematics.errors.apart`)."""
