@@ -12,11 +12,8 @@ move the platform by ``du``:
   multiplied by ``2 s``). For a mechanism with more constraints than coordinates the inverse is the
   Moore-Penrose pseudo-inverse (least-squares deviation).
 - **exact**: the perturbed closure ``q(u + du, p + Delta p) = s + Delta s`` solved by Newton's method, followed
-  from the nominal pose as the errors grow from 0 in :data:`STEPS` steps, each solve started from the last one's
-  pose, and refused where the path ends (a step without a solution) or crosses a singularity (the sign of
-  ``det(dq/du)``, the assembly branch, changes): a solve from the nominal pose alone converged on another branch (a
-  GSP 45 mm and 21 deg away under an A1 error of 0.5 deg, whose own branch ends at 0.36 deg, where 0.4 deg was
-  refused).
+  from the nominal pose as the errors grow (:mod:`.exact_path`: a solve from the nominal pose alone converged on
+  another assembly mode) and refused where that path ends.
 
 ``du`` is in the mechanism's pose coordinates (m, and rad of its Euler angles: Z-X-Z for Alwan's
 platform); the difference exact - linearised is second order in the errors. The deviation is also given
@@ -51,6 +48,7 @@ from .base import (
     euler_rate_matrix,
     rotation_vector,
 )
+from .exact_path import PathEndedError, follow
 
 #: Distance [rad] of the second Euler angle from its gimbal lock (Z-X-Z: theta = 0 or pi; roll-pitch-yaw: B = +-pi/2)
 #: within which the Euler-angle deviations are flagged: there the first and third move by 1 / sin(0.1) = 10 times
@@ -323,66 +321,18 @@ def _check_regular(mech: Mechanism, poses: np.ndarray) -> np.ndarray:
     return 1.0 / dex
 
 
-#: Steps of the exact solve's path from the nominal pose to the errors (module docstring).
-STEPS = 8
-
-
-class _PathEndedError(ConvergenceError):
-    """The exact solve's path ended before the whole errors, at the share ``t`` of them (``why``: what ended it)."""
-
-    def __init__(self, t: float, why: str) -> None:
-        super().__init__(why)
-        self.t, self.why = t, why
-
-
-def _branch(mech: Mechanism, poses: np.ndarray) -> np.ndarray:
-    """``(N,)`` the sign of ``det(dq/d twist)`` of a six-DOF mechanism, whose assembly modes a solve may jump between:
-    constant along a path of poses that crosses no singularity (0 for the others: not checked)."""
-    if len(mech.pose_variables) != 6:
-        return np.zeros(poses.shape[0])
-    return np.asarray(np.sign(np.linalg.det(mech.task_jacobian(poses))))
-
-
-def _followed(mech: Mechanism, dp: dict[str, np.ndarray], poses: np.ndarray, joints: np.ndarray, ds: np.ndarray,
-              tol: float) -> np.ndarray:
-    """The poses ``(N, 6)`` reaching ``joints + ds`` with the parameters off by ``dp``, followed from the nominal
-    ``poses`` in :data:`STEPS` steps of the errors (module docstring); :class:`_PathEndedError` where a step finds no
-    pose or the branch changes."""
-    nominal = mech.parameters() if dp else {}
-    start, at = _branch(mech, poses), poses
-    for k in range(1, STEPS + 1):
-        t = k / STEPS
-        m = mech.with_parameters({n: nominal[n] + t * v for n, v in dp.items()}) if dp else mech
-        try:
-            at = m.forward_kinematics(joints + t * ds, at, tol=tol)
-        except (ConvergenceError, SingularityError) as exc:   # no pose near the last one, or a fold's singular step
-            raise _PathEndedError(t, str(exc).removeprefix(f'{m.name}: forward kinematics ').split('; allowed: ')[0]
-                             ) from None
-        if np.any(_branch(m, at) != start):
-            raise _PathEndedError(t, 'crossed a singular configuration (the sign of det(dq/du) changed): the pose with '
-                                'the whole errors lies on another assembly branch')
-    return at
-
-
-def _unsolved(mech: Mechanism, dp: dict[str, np.ndarray], poses: np.ndarray, joints: np.ndarray, ds: np.ndarray,
-              cond: np.ndarray, tol: float, exc: _PathEndedError) -> ConvergenceError:
-    """The exact solve's failure at the first pose whose path to its errors ends (:func:`_followed`), named with its
-    pose, how far the errors got, why, its condition number and what is allowed (a mechanism without a reach check
-    of its own: the pose lies likely outside the reach of the mechanism with the errors)."""
-    k = 0
-    if poses.shape[0] > 1:   # the batch does not say which pose: each followed alone until one fails
-        for k in range(poses.shape[0]):
-            try:
-                _followed(mech, dp, poses[k:k + 1], joints[k:k + 1], ds[k:k + 1], tol)
-            except _PathEndedError as one:
-                exc = one
-                break
+def _unsolved(mech: Mechanism, poses: np.ndarray, cond: np.ndarray, exc: PathEndedError) -> ConvergenceError:
+    """The exact solve's failure at the first pose whose path to its errors ends (:func:`.exact_path.follow`), named
+    with its pose, how far the errors got, why, its condition number and what is allowed (a mechanism without a
+    reach check of its own: the pose lies likely outside the reach of the mechanism with the errors)."""
+    k = exc.row
     pose = ', '.join(f'{v:.6g}' for v in poses[k].tolist())
     return ConvergenceError(f'{mech.name}: the exact deviation at pose {k + 1} ({", ".join(mech.pose_names)} = '
                             f'{pose}; m, rad) cannot be solved: followed from the nominal pose as its errors grow, '
-                            f'forward kinematics at {100 * exc.t:g} % of them {exc.why}; allowed: poses the mechanism '
-                            f'still reaches with the errors (this one, condition number {cond[k]:.3g}, is likely '
-                            'outside its reach: a pose farther inside the workspace, or smaller errors)', sample=k)
+                            f'forward kinematics at {100 * exc.t:.4g} % of them {exc.why}; allowed: poses the '
+                            f'mechanism still reaches with the errors (this one, condition number {cond[k]:.3g}, is '
+                            'likely outside its reach: a pose farther inside the workspace, or smaller errors)',
+                            sample=k)
 
 
 def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
@@ -412,9 +362,10 @@ def accuracy_analysis(mech: Mechanism, poses: Any, joint_errors: Any = None,
     rhs = _right_side(mech, arr, ds, dp)   # once for both deviations (its parameter Jacobians are differences)
     lin = _deviation(mech, arr, rhs)
     try:
-        exact_poses = _followed(mech, dp, arr, q, ds, tol)
-    except _PathEndedError as exc:   # it said only 'did not converge to 1e-13 in 50 iterations', not where
-        raise _unsolved(mech, dp, arr, q, ds, cond, tol, exc) from None
+        exact_poses = follow(mech, dp, arr, q, ds, tol,
+                             lambda at, rows: _motion(mech, at, _right_side(mech, at, ds[rows], dp)))
+    except PathEndedError as exc:   # it said only 'did not converge to 1e-13 in 50 iterations', not where
+        raise _unsolved(mech, arr, cond, exc) from None
     exact = mech.coordinates(exact_poses) - mech.coordinates(arr)
     angular = np.array([mech.pose_names.index(v) >= 3 for v in mech.pose_variables])
     exact[:, angular] = wrap_angle(exact[:, angular])  # Euler angles wrap
