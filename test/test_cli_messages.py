@@ -203,7 +203,9 @@ WORKSPACE = ['workspace', 'gpr.yaml', '--delta', '0.01']
     (['sweep', '--passes', '01001'], '--passes = 01001; allowed: an integer from 1 to 1000'),
     ([*BUDGET, '--samples', '-01'], '--samples = -01; allowed: an integer from 0 to 1000000'),
     ([*BUDGET, '--seed', '-0001'], '--seed = -0001; allowed: an integer from 0 to 2**63 - 1'),
-    ([*BUDGET, '--calibration-plan', '+0'], '--calibration-plan = +0; allowed: an integer >= 1 (configurations)'),
+    # not 'an integer >= 1', where 1 is then refused as too few to identify the parameters ('at least 5')
+    ([*BUDGET, '--calibration-plan', '+0'], '--calibration-plan = +0; allowed: a positive number of configurations, '
+                                            'enough to identify the parameters (the plan names the least)'),
     (['calibrate', '--plan', '00', '--tolerances', 'tolerances_example.yaml'],
      'plan size 00: 0 configuration(s) measured as poses give 0 residuals, too few to identify 24 parameters (gpr '
      'calibrate refuses a file of so few rows); allowed: at least 5'),

@@ -207,7 +207,8 @@ def test_a1_singular_when_lines_parallel():
 
 def test_a1_keeps_every_digit_of_small_angles_and_its_row_stays_a_unit_vector():
     """``arccos(R t . s)`` lost a small angle's digits (1e-7 rad read 2.3 % low, 1e-8 read 0 and its row infinite:
-    'the lines are parallel'): for the same mechanism turned by A about x, the A1 angle is A to rounding of A itself
+    'the lines are parallel'; |R t x s| by its square underflowed below 1e-154): for the same mechanism turned by A
+    about x, the A1 angle is A to rounding of A itself
     (the lines start parallel), in the batch and the one-pose paths, and its row ``-(R t x s) / sin(theta)`` has
     norm 1 (unit lines), the mechanism regular."""
     cons = [parse_constraint({'type': 'D1', 'A_i': [math.cos(a), math.sin(a), 0], 'B_i': [0.5 * math.cos(a),
@@ -216,7 +217,7 @@ def test_a1_keeps_every_digit_of_small_angles_and_its_row_stays_a_unit_vector():
     cons.append(parse_constraint({'type': 'A1', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1], 'B_i': [0, 0, 0],
                                   'B_j': [0, 0, 1]}, 'a1'))
     mech = GeneralizedStewartPlatform(cons)
-    angles = np.array([1e-3, 1e-5, 1e-6, 1e-7, 1e-8, 1.4e-8, 1e-12, -1e-9, math.pi - 1e-9])
+    angles = np.array([1e-3, 1e-5, 1e-6, 1e-7, 1e-8, 1.4e-8, 1e-12, -1e-9, math.pi - 1e-9, 1e-160, 1e-300])
     poses = np.column_stack([np.zeros((angles.size, 2)), np.ones(angles.size), angles, np.zeros((angles.size, 2))])
     batch = mech.inverse_kinematics(poses)[:, 5]
     one = np.array([mech.inverse_kinematics(p)[5] for p in poses])

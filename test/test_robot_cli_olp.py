@@ -161,6 +161,13 @@ def test_export_and_send_keep_the_margin_given_as_check_does(capsys, tmp_path):
                 in err), err
         status, _, err = run(capsys, 'program', 'export', str(cell_program), option, str(path), '--margin', '0.006')
         assert status == 0 and path.exists(), err
+    # named as typed, every digit (1.0000000000000002 read '1 is invalid'); below the smallest float refused (1e-400
+    # and -1e-400 passed as a margin of 0 and -0 mm)
+    status, _, err = run(capsys, 'program', 'check', str(cell_program), '--margin', '1.0000000000000002')
+    assert status == 2 and '--margin = 1.0000000000000002 is invalid' in err, err
+    for tiny in ('1e-400', '-1e-400'):
+        status, _, err = run(capsys, 'program', 'check', str(cell_program), '--margin', tiny)
+        assert status == 2 and f"invalid float value: '{tiny}' (below the smallest float" in err, err
     for command in ('check', 'export', 'send'):   # named as typed ('margin = 5.0' before)
         extra = ('--waypoints', str(tmp_path / 'x.csv')) if command == 'export' else ()
         status, out, err = run(capsys, 'program', command, str(cell_program), *extra, '--margin', '5')

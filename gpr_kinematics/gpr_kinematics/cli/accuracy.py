@@ -119,8 +119,8 @@ def check_budget_options(args: argparse.Namespace, budget: bool) -> None:
     if args.seed is not None and not 0 <= args.seed <= 2 ** 63 - 1:
         raise InputError(f'--seed = {brief(args.seed)}; allowed: an integer from 0 to 2**63 - 1')
     if args.calibration_plan is not None and args.calibration_plan < 1:
-        raise InputError(f'--calibration-plan = {brief(args.calibration_plan)}; allowed: an integer >= 1 '
-                         '(configurations)')
+        raise InputError(f'--calibration-plan = {brief(args.calibration_plan)}; allowed: a positive number of '
+                         'configurations, enough to identify the parameters (the plan names the least)')
     if args.plot is not None:
         _check_plot(args)
 

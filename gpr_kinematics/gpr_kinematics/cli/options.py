@@ -58,6 +58,8 @@ def number(text: str) -> float:
         raise NumberTextError(f'invalid float value: {brief(text)}{hint}') from None
     if math.isinf(value) and 'inf' not in text.lower():   # digits beyond a float: named as typed, not as 'inf'
         raise NumberTextError(f'invalid float value: {brief(text)} (beyond the largest float, 1.8e308)')
+    if value == 0.0 and any(c in '123456789' for c in text.lower().split('e')[0]):   # 1e-400 read as 0 (or -0)
+        raise NumberTextError(f'invalid float value: {brief(text)} (below the smallest float, 4.9e-324: it reads as 0)')
     return value
 
 

@@ -44,8 +44,9 @@ def margin_of(args: argparse.Namespace) -> float:
     from ..safety.margin import MARGIN_RANGE
     if args.margin is None:
         return MARGIN
-    check_length('--margin', args.margin, *MARGIN_RANGE, shown=f'{args.margin:.12g}')
-    return float(args.margin)
+    typed = repr(float(args.margin))   # the shortest that reads back: 1.0000000000000002 is not 1
+    check_length('--margin', args.margin, *MARGIN_RANGE, shown=typed[:-2] if typed.endswith('.0') else typed)
+    return float(args.margin) + 0.0   # -0 typed: 0 (it printed 'margin -0 mm')
 
 
 def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: float, command: str,

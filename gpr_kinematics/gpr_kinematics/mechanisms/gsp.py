@@ -322,8 +322,8 @@ class GeneralizedStewartPlatform(Mechanism):
                     q[:, idx] = np.where(g > 0, np.abs(_dot(vi, n)) / g,
                                          np.linalg.norm(_cross(vi, np.broadcast_to(s[idx], vi.shape)), axis=-1))
             else:  # A1: atan2(|R t x s|, R t . s), every digit near 0 and pi (arccos lost them)
-                c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))
-                q[:, idx] = np.arctan2(np.sqrt(_dot(c, c)), _dot(Rt[:, idx], s[idx]))
+                c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))   # |c| by hypot: c . c underflows
+                q[:, idx] = np.arctan2(np.hypot(np.hypot(c[..., 0], c[..., 1]), c[..., 2]), _dot(Rt[:, idx], s[idx]))
         return q
 
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
@@ -376,7 +376,7 @@ class GeneralizedStewartPlatform(Mechanism):
                 else:  # A1: -(R t x s) / sin(theta), sin(theta) = |R t x s| (not sqrt(1 - cos^2): no digits near 0)
                     c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))
                     J[:, idx, :3] = 0.0
-                    J[:, idx, 3:] = c * (-1.0 / np.sqrt(_dot(c, c)))[..., None]
+                    J[:, idx, 3:] = c * (-1.0 / np.hypot(np.hypot(c[..., 0], c[..., 1]), c[..., 2]))[..., None]
         return J
 
     def _scalar(self, p: list[float], R: list[list[float]], jacobian: bool

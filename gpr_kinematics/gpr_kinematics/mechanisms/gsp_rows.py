@@ -79,7 +79,7 @@ def _row_a1(R: list[list[float]], Rb: Vec, v: Vec, s: Vec, t: Vec, ct: str, jaco
     ``sin(theta) = |R t x s|`` (``acos(R t . s)`` lost the angle's digits below 1e-4 rad: 0 at 1e-8)."""
     Rt = mul3(R, t)
     c = _cross3(Rt, s)
-    sin = math.sqrt(_dot3(c, c))
+    sin = math.hypot(*c)   # not sqrt(c . c): its square underflowed below 1e-154 rad
     value = math.atan2(sin, _dot3(Rt, s))
     if not jacobian:
         return value, None
