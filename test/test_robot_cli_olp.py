@@ -179,7 +179,8 @@ def test_export_and_send_keep_the_margin_given_as_check_does(capsys, tmp_path):
 def test_export_shows_its_checks_progress_unless_no_progress(capsys, tmp_path, monkeypatch):
     """``export`` checks the program as ``check`` does (seconds on a real program) without a word, and had no
     ``--no-progress``: with the line shown from the start (``AFTER`` 0 s) its stages and their ends go to stderr, for
-    the tables as for the trajectory; ``--no-progress`` writes nothing there and the same stdout."""
+    the tables as for the trajectory; ``--no-progress`` writes nothing there and the same stdout, which says what the
+    outputs were checked against (``checked`` in JSON: check's numbers)."""
     monkeypatch.setattr('gpr_kinematics.cli.progress.AFTER', 0.0)
     for option, name in (('--waypoints', 'w.csv'), ('--trajectory', 't.yaml')):
         argv = ('program', 'export', str(PROGRAM), option, str(tmp_path / name))
@@ -191,3 +192,13 @@ def test_export_shows_its_checks_progress_unless_no_progress(capsys, tmp_path, m
                    for stage in {line.split(':')[0] for line in lines}), lines
         status, quiet, err = run(capsys, *argv, '--no-progress')
         assert (status, quiet, err) == (0, shown, ''), err
+        # what the outputs were checked against, said (an engineer had no record of the cell, margin and verdict)
+        assert '  checked safe against itself (no cell): minimum clearance 3.879 mm (margin 2 mm), max slip ratio ' \
+            in shown, shown
+    status, out, _ = run(capsys, 'program', 'check', str(PROGRAM), '--json', '--no-progress')
+    check = json.loads(out)
+    status, out, _ = run(capsys, 'program', 'export', str(PROGRAM), '--waypoints', str(tmp_path / 'w2.csv'), '--json',
+                         '--margin', '0.003', '--no-progress')
+    assert status == 0 and json.loads(out)['checked'] == {
+        'safe': True, 'cell': None, 'margin': 0.003, 'min_clearance': check['min_clearance'],
+        'max_slip_ratio': check['max_slip_ratio']}

@@ -20,6 +20,7 @@ import argparse
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from ..bags.results import json_number
 from ..errors import InputError
 from ..inputs.resources import CELLS, PROGRAMS
 from ..robot.plan import ProgramSummary, program_summary
@@ -189,8 +190,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
                      + (f' with its --lead-in of {args.lead_in:g} s' if args.lead_in else ''))
     line = progress_line(args.no_progress)
     try:
-        unsafe = _tables_of_a_safe_program(args, plan, margin, line)
-        checked = _export_trajectory(args, plan, margin, line)   # checked before any file is written
+        unsafe, report = _tables_of_a_safe_program(args, plan, margin, line)
+        checked, report = _export_trajectory(args, plan, margin, line, report)   # before any file is written
     finally:
         line.close()
     meta = {'robot': plan.robot.name, 'program': plan.program.source}
@@ -203,10 +204,12 @@ def _cmd_export(args: argparse.Namespace) -> int:
                                                   meta | {'rate': args.rate}))
         written['sample_count'] = len(sampled)
     written |= checked
+    written |= _checked(report)
     if args.json:
         emit_json(program_summary(plan), **written)
     else:
         _print_summary(program_summary(plan))
+        _print_checked(report)
         for key in ('waypoints', 'samples', 'trajectory'):
             if f'{key}_file' in written:
                 print(f'  {key} written to {written[f"{key}_file"]}')
@@ -218,21 +221,40 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any, margin: float, line: ProgressLine) -> str:
+def _checked(report: SafetyReport | None) -> dict[str, JsonValue]:
+    """``checked``, what the outputs were checked against (``--json``; an engineer had no record of the cell,
+    margin and verdict of the tables written): {} when they were not (``--force``)."""
+    if report is None:
+        return {}
+    return {'checked': {'safe': report.safe, 'cell': report.cell, 'margin': report.margin,
+                        'min_clearance': json_number(report.min_clearance),
+                        'max_slip_ratio': json_number(report.max_slip_ratio)}}
+
+
+def _print_checked(report: SafetyReport | None) -> None:
+    """The text of :func:`_checked`: ``checked safe in cell ...: minimum clearance ... (margin ...), ...``."""
+    if report is not None:
+        where = f'in cell {report.cell}' if report.cell else 'against itself (no cell)'
+        print(f'  checked safe {where}: minimum clearance {report.min_clearance * 1e3:.3f} mm (margin '
+              f'{report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f}')
+
+
+def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any, margin: float, line: ProgressLine
+                              ) -> tuple[str, SafetyReport | None]:
     """Refuse (:class:`~gpr_kinematics.errors.UnsafeError`, status 1) the joint tables of a program ``gpr program
     check`` finds not safe, as the trajectory is (they drive a controller as it does: a colliding program's and a
     slipping one's were written with exit 0); with ``--force`` the reason, the tables then written (status 1). With
-    ``--trajectory`` the check is the trajectory's (:func:`.program_trajectory.as_a_controller_takes_it`)."""
+    ``--trajectory`` the check is the trajectory's (:func:`.program_trajectory.as_a_controller_takes_it`). The
+    reason with ``--force`` ('' when safe) and the check's report (None when forced or with ``--trajectory``)."""
     from ..errors import UnsafeError
     if args.trajectory is not None:
-        return ''
+        return '', None
     try:
-        the_program_is_safe(plan, args.rate, 'export', margin, line)
+        return '', the_program_is_safe(plan, args.rate, 'export', margin, line)[1]
     except UnsafeError as exc:
         if not args.force:
             raise UnsafeError(f'{exc}; --force writes the tables anyway, for analysis (status 1)') from None
-        return str(exc).rsplit('; allowed: ', 1)[0]   # the reason: what is allowed is the refusal's, not the warning's
-    return ''
+        return str(exc).rsplit('; allowed: ', 1)[0], None   # the reason: what is allowed is the refusal's
 
 
 # -- the program as a joint trajectory: export --trajectory, send ------------------------------------------------
@@ -248,18 +270,20 @@ def _check_trajectory_output(args: argparse.Namespace) -> None:
         raise InputError('--lead-in applies to --trajectory FILE.yaml, which is not given')
 
 
-def _export_trajectory(args: argparse.Namespace, plan: Any, margin: float, line: ProgressLine) -> dict[str, Any]:
+def _export_trajectory(args: argparse.Namespace, plan: Any, margin: float, line: ProgressLine,
+                       report: SafetyReport | None) -> tuple[dict[str, Any], SafetyReport | None]:
     """``--trajectory``: the program's trajectory at ``--rate``, its points ``--lead-in`` seconds later, checked at
-    ``margin`` [m] as a controller takes it (its check's progress on ``line``)."""
+    ``margin`` [m] as a controller takes it (its check's progress on ``line``); its output keys and the check's
+    report (``report`` without ``--trajectory``)."""
     if args.trajectory is None:
-        return {}
+        return {}, report
     from ..robot.trajectory import program_trajectory, write_trajectory
     traj = program_trajectory(plan, args.rate)
     # in the program's time (its wafers' windows)
-    as_a_controller_takes_it(plan, traj, args.rate, 'export', margin, line)
+    report = as_a_controller_takes_it(plan, traj, args.rate, 'export', margin, line)
     traj = traj.shifted(args.lead_in)
     return {'trajectory_file': write_trajectory(args.trajectory, traj), 'trajectory_points': len(traj),
-            'trajectory_duration': traj.duration}
+            'trajectory_duration': traj.duration}, report
 
 
 def register(sub: Any) -> None:

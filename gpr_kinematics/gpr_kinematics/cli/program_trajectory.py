@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from ..robot.controller import Motion
     from ..robot.plan import ProgramPlan
     from ..robot.trajectory import JointTrajectory
+    from ..safety.check import SafetyReport
     from ..safety.clearance import ClearanceReport, PairClearance
 
 #: What lowers a carried wafer's slip ratio (``gpr program check``'s and the refusals' hint).
@@ -50,14 +51,14 @@ def margin_of(args: argparse.Namespace) -> float:
 
 
 def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: float, command: str,
-                             margin: float = MARGIN, progress: StageProgress | None = None) -> None:
+                             margin: float = MARGIN, progress: StageProgress | None = None) -> SafetyReport:
     """Refuse a trajectory at ``--rate`` whose spline between points is not the checked program: one
     ``robot_simulator_node`` would refuse (:func:`~gpr_kinematics.robot.controller.plan_motion` from its first point,
     sampled at :data:`CONTROLLER_RATE`, or fewer per second for a program longer than the samples it takes: a warning
     then says the node needs a lower ``rate``), one whose spline comes within the clearance margin in the program's
     cell or against the robot itself (:func:`~gpr_kinematics.safety.check.trajectory_clearance`), makes a wafer slip
     or leaves the program by more than :data:`DEVIATION_ALLOWED` (``margin`` [m]: the clearance's, ``--margin``;
-    ``progress``: the check's progress line).
+    ``progress``: the check's progress line); the program's :class:`~gpr_kinematics.safety.check.SafetyReport`.
     The cubic between points a few per second apart overshoots the program's velocities (the example cell program's
     rod_1 by 1.05 % at 5 Hz, beyond the 1 % a controller allows), and at 0.3 Hz put arm2's blade 8.7 mm into a
     chamber's wall: such files were written, or sent."""
@@ -74,7 +75,8 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
     except GoalError as exc:
         raise InputError(f'at --rate {rate:g} Hz a controller refuses the trajectory: {exc} (a higher --rate gives it '
                          'more points)') from None
-    if the_program_is_safe(plan, rate, command, margin, progress):
+    fcl, report = the_program_is_safe(plan, rate, command, margin, progress)
+    if fcl:
         _keeps_the_clearance(plan, plan.program.cell, traj, rate, margin)
     _holds_the_wafers(plan, traj, rate)
     _follows_the_program(plan, motion, joints.names, rate)
@@ -83,15 +85,17 @@ def as_a_controller_takes_it(plan: ProgramPlan, traj: JointTrajectory, rate: flo
               f'samples a goal at its rate into at most {MAX_SAMPLES} samples and refuses it at its default rate of '
               f'{CONTROLLER_RATE:g} Hz (at most {longest:.6g} s); give the node a lower rate '
               f'(at most {(MAX_SAMPLES - 1) / traj.duration:.6g} Hz)', file=sys.stderr)
+    return report
 
 
 def the_program_is_safe(plan: ProgramPlan, rate: float, command: str, margin: float = MARGIN,
-                        progress: StageProgress | None = None) -> bool:
+                        progress: StageProgress | None = None) -> tuple[bool, SafetyReport]:
     """Refuse (:class:`~gpr_kinematics.errors.UnsafeError`, status 1) a program ``gpr program check`` finds not safe
     (:func:`~gpr_kinematics.safety.check.check_program`: the clearance in its cell or against itself, the wafers'
     slip, the imperfection budget at ``rate``), naming the first reason: a program whose wafer slipped (ratio 2.26 at
     a friction of 0.1) had its trajectory written and sent. Without python-fcl the clearance is left out with a
-    warning; whether it was checked. ``progress``: told each stage's share done (``gpr program check``'s line)."""
+    warning; whether it was checked, and the report. ``progress``: told each stage's share done (``gpr program
+    check``'s line)."""
     from ..safety.cell import load_cell
     from ..safety.check import check_program
     cell = plan.program.cell
@@ -100,7 +104,7 @@ def the_program_is_safe(plan: ProgramPlan, rate: float, command: str, margin: fl
     loaded = None if cell is None else load_cell(cell)
     report, clear, _ = check_program(plan, loaded, margin, progress=progress, rate=rate, with_clearance=fcl)
     if report.safe:
-        return fcl
+        return fcl, report
     if report.collisions:
         from ..safety.check import program_clearance
         p = _least(program_clearance(plan, loaded, margin, decide=False, only=_names(clear)))
