@@ -188,14 +188,19 @@ def test_homogenization_and_conditioning():
     np.testing.assert_allclose(Hmm, H, atol=1e-12)
 
 
-def test_a1_singular_when_lines_parallel():
-    """An A1 constraint with theta = 0 has no inverse-Jacobian row (division by sin theta)."""
+def _five_d1_and_an_a1() -> GeneralizedStewartPlatform:
+    """Five D1 legs about the z axis and an A1 constraint whose lines are parallel (along z) at a level platform."""
     cons = [parse_constraint({'type': 'D1', 'A_i': [math.cos(a), math.sin(a), 0], 'B_i': [0.5 * math.cos(a),
                                                                                             0.5 * math.sin(a), 0]},
                              f'c{k}') for k, a in enumerate(np.linspace(0, 2 * math.pi, 6, endpoint=False)[:5])]
     cons.append(parse_constraint({'type': 'A1', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1], 'B_i': [0, 0, 0],
                                   'B_j': [0, 0, 1]}, 'a1'))
-    mech = GeneralizedStewartPlatform(cons)
+    return GeneralizedStewartPlatform(cons)
+
+
+def test_a1_singular_when_lines_parallel():
+    """An A1 constraint with theta = 0 has no inverse-Jacobian row (division by sin theta)."""
+    mech = _five_d1_and_an_a1()
     pose = np.array([0, 0, 1.0, 0, 0, 0])
     assert mech.inverse_kinematics(pose)[5] == 0.0
     assert not np.all(np.isfinite(mech.inverse_jacobian(pose)))
@@ -210,13 +215,8 @@ def test_a1_keeps_every_digit_of_small_angles_and_its_row_stays_a_unit_vector():
     'the lines are parallel'; |R t x s| by its square underflowed below 1e-154): for the same mechanism turned by A
     about x, the A1 angle is A to rounding of A itself
     (the lines start parallel), in the batch and the one-pose paths, and its row ``-(R t x s) / sin(theta)`` has
-    norm 1 (unit lines), the mechanism regular."""
-    cons = [parse_constraint({'type': 'D1', 'A_i': [math.cos(a), math.sin(a), 0], 'B_i': [0.5 * math.cos(a),
-                                                                                            0.5 * math.sin(a), 0]},
-                             f'c{k}') for k, a in enumerate(np.linspace(0, 2 * math.pi, 6, endpoint=False)[:5])]
-    cons.append(parse_constraint({'type': 'A1', 'A_i': [0, 0, 0], 'A_j': [0, 0, 1], 'B_i': [0, 0, 0],
-                                  'B_j': [0, 0, 1]}, 'a1'))
-    mech = GeneralizedStewartPlatform(cons)
+    norm 1 (unit lines), no row said undefined."""
+    mech = _five_d1_and_an_a1()
     angles = np.array([1e-3, 1e-5, 1e-6, 1e-7, 1e-8, 1.4e-8, 1e-12, -1e-9, math.pi - 1e-9, 1e-160, 1e-300])
     poses = np.column_stack([np.zeros((angles.size, 2)), np.ones(angles.size), angles, np.zeros((angles.size, 2))])
     batch = mech.inverse_kinematics(poses)[:, 5]
