@@ -14,7 +14,7 @@ from gpr_kinematics.robot.plan import plan_program, sample_plan
 from gpr_kinematics.robot.program import load_program
 from gpr_kinematics.safety.cell import Obstacle, load_cell
 from gpr_kinematics.safety.check import wafer_plan
-from gpr_kinematics.safety.plan_view import RATE, RIM, corners, outline, plan_view
+from gpr_kinematics.safety.plan_view import RATE, RIM, PlanView, corners, outline, plan_view
 
 PROGRAM = config_path('programs/example_cell_program.yaml')
 CELL = config_path('cells/example_cell.yaml')
@@ -133,3 +133,16 @@ def test_a_station_wafer_in_the_closest_pair_is_the_red_outline():
         assert red == wafer
     finally:
         plt.close(fig)
+
+
+def test_an_obstacle_named_like_an_arms_body_is_not_taken_for_the_arm():
+    """The marker's arm was found by the body's name prefix: an obstacle ``arm2_rack`` (not a robot body's name, so
+    allowed) closest to arm1 put the triangle on arm2's path."""
+    from gpr_kinematics.safety.plot import _where_arm
+    view = PlanView(outlines=(('arm2_rack', np.zeros((4, 2))),),
+                    paths=(('arm1', np.array([[1.0, 2.0], [3.0, 4.0]]), np.array([0.0, 1.0]), np.array([False, True])),
+                           ('arm2', np.array([[5.0, 6.0]]), np.array([0.5]), np.array([False]))),
+                    station_names=(), stations=np.zeros((0, 2)))
+    arm, at = _where_arm(view, ('arm1_link2', 'arm2_rack'), 0.9)
+    assert arm == 'arm1' and at.tolist() == [3.0, 4.0]
+    assert _where_arm(view, ('gpr_base', 'arm2_rack'), 0.5) == ('', None)

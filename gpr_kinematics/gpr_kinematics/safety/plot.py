@@ -157,10 +157,12 @@ def draw_plan_view(ax: Axes, view: PlanView, clear: ClearanceReport, report: Saf
 
 
 def _where_arm(view: PlanView, bodies: tuple[str, str], time: float) -> tuple[str, NDArray[np.float64] | None]:
-    """The arm owning one of ``bodies`` (``arm1_link2``, ``arm2_wafer``) and its wafer centre [m] at the sample
-    nearest ``time`` among those it is in use; ``('', None)`` for a pair of no arm's body."""
+    """The arm owning one of ``bodies`` (``arm1_link2``, ``arm2_wafer``; not a fixed body, an obstacle ``arm2_rack``
+    named like one) and its wafer centre [m] at the sample nearest ``time`` among those it is in use; ``('', None)``
+    for a pair of no arm's body."""
+    fixed = {name for name, _ in view.outlines}
     for arm, xy, t, _ in view.paths:
-        if any(b == arm or b.startswith(f'{arm}_') for b in bodies) and t.size:
+        if any((b == arm or b.startswith(f'{arm}_')) and b not in fixed for b in bodies) and t.size:
             return arm, np.asarray(xy[int(np.argmin(np.abs(t - time)))], dtype=float)
     return '', None
 
