@@ -196,7 +196,7 @@ def test_bad_combinations_exit_2_with_one_line(capsys, tmp_path):
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--samples', '2000000'],
          r'samples = 2000000; allowed: an integer from 0 to 1000000'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--calibration-plan', '0'],
-         r'--calibration-plan = 0; allowed: an integer >= 1'),
+         r'--calibration-plan = 0; allowed: a positive number of configurations'),
         (['accuracy', 'gpr.yaml', *pose, '--tolerances', TABLE, '--calibration-plan', '5000'], r'plan size 5000'),
         (['accuracy', 'gpr.yaml', '--pose', '0', '0', '0.3', '0.1', '0', '0', '--tolerances', TABLE],
          r'beyond the tilt limit'),
