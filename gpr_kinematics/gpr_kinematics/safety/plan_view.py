@@ -73,7 +73,8 @@ def plan_view(plan: ProgramPlan, cell: Cell | None) -> PlanView:
     s = sample_plan(plan, RATE)
     t = s.samples.time
     arms = np.asarray(s.arm)
-    carried = wafer_plan(plan).carried
+    wafers = wafer_plan(plan)
+    carried = wafers.carried
     paths = []
     for arm in dict.fromkeys(s.arm):
         used = arms == arm
@@ -82,7 +83,7 @@ def plan_view(plan: ProgramPlan, cell: Cell | None) -> PlanView:
         for a, b in carried.get(arm, ()):
             held |= (times >= a) & (times <= b)
         paths.append((arm, np.asarray(s.wafer.position[used, :2], dtype=float), times, held))
-    fixed = [b for b in program_bodies(plan, cell)[0] if b.frame is None]   # the cell's, then the station wafers
+    fixed = [b for b in program_bodies(plan, cell, wafers)[0] if b.frame is None]   # the cell's, the station wafers
     st = plan.program.stations.stations
     return PlanView(tuple((b.name, outline(b)) for b in fixed), tuple(paths), st.names,
                     np.asarray(st.position[:, :2], dtype=float))
