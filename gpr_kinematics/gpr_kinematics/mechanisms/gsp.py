@@ -90,6 +90,11 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.asarray(a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2])
 
 
+def _length(a: np.ndarray) -> np.ndarray:
+    """``|a|`` over the last axis by ``hypot``: ``sqrt(a . a)`` underflows below 1e-154 (the A1 angle's sine)."""
+    return np.asarray(np.hypot(np.hypot(a[..., 0], a[..., 1]), a[..., 2]))
+
+
 @dataclass(frozen=True)
 class Constraint:
     """One GSP constraint: type, its points (base frame ``A_*``, platform frame ``B_*``, m) and limits."""
@@ -322,8 +327,8 @@ class GeneralizedStewartPlatform(Mechanism):
                     q[:, idx] = np.where(g > 0, np.abs(_dot(vi, n)) / g,
                                          np.linalg.norm(_cross(vi, np.broadcast_to(s[idx], vi.shape)), axis=-1))
             else:  # A1: atan2(|R t x s|, R t . s), every digit near 0 and pi (arccos lost them)
-                c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))   # |c| by hypot: c . c underflows
-                q[:, idx] = np.arctan2(np.hypot(np.hypot(c[..., 0], c[..., 1]), c[..., 2]), _dot(Rt[:, idx], s[idx]))
+                c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))
+                q[:, idx] = np.arctan2(_length(c), _dot(Rt[:, idx], s[idx]))
         return q
 
     def inverse_jacobian(self, poses: Any) -> np.ndarray:
@@ -376,7 +381,7 @@ class GeneralizedStewartPlatform(Mechanism):
                 else:  # A1: -(R t x s) / sin(theta), sin(theta) = |R t x s| (not sqrt(1 - cos^2): no digits near 0)
                     c = _cross(Rt[:, idx], np.broadcast_to(s[idx], Rt[:, idx].shape))
                     J[:, idx, :3] = 0.0
-                    J[:, idx, 3:] = c * (-1.0 / np.hypot(np.hypot(c[..., 0], c[..., 1]), c[..., 2]))[..., None]
+                    J[:, idx, 3:] = c * (-1.0 / _length(c))[..., None]
         return J
 
     def _scalar(self, p: list[float], R: list[list[float]], jacobian: bool
