@@ -35,7 +35,7 @@ from ..inputs.units import metres
 from ..workspace import MAX_BOXES, METHODS, WorkspaceResult, approximate, load_workspace_model
 from ..workspace.base import DEFAULT_MAX_SECONDS, check_delta, check_max_boxes, check_max_seconds, workspace_report
 from ..workspace.boxes import closed_faces, reached_faces
-from ..workspace.levels import PARTS
+from ..workspace.levels import PARTS, SIGNALLED
 from ..workspace.progress import StopFlag
 from ..workspace.scheduler import MAX_WORKERS, check_scheduler
 from .options import number, whole
@@ -212,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f'gpr workspace: {said}{why} after {result.seconds:.1f} s; the unexamined boxes '
                          'count as boundary boxes\n')
     # stopped by a signal: what was proved is kept, and the status says so (a time or box limit is a result: 0)
-    signalled = StopFlag.caught is not None or bool({'interrupted', 'terminated'} & set(result.stopped.split('; ')))
+    signalled = StopFlag.caught is not None or bool(set(SIGNALLED) & set(result.stopped.split('; ')))
     status = 128 + (StopFlag.caught or signal.SIGINT) if signalled else 0
     if args.json:
         emit_json(report, file=str(args.file), overrides=json_object(overrides), **written)

@@ -10,8 +10,7 @@ with the original spacing divided by ``rate``. Parameters (read-only):
 - ``clock_rate``: publish ``/clock`` (``rosgraph_msgs/Clock``, best effort, as ``ros2 bag play --clock``) this often
   [Hz]: the bag's log time of that instant (the first message's while it waits for subscribers and at the start of
   a pass, back to it at each pass of a ``loop``), for nodes with ``use_sim_time``; 0 (the default): none; a bag whose
-  log times pass
-  2038-01-19 (beyond ``builtin_interfaces/Time``) is refused with it;
+  log times pass 2038-01-19 (beyond ``builtin_interfaces/Time``) is refused with it;
 - ``topics``: replay only these topics (default: all);
 - ``wait_for_subscribers``: before the first message wait until every topic (or ``wait_topic`` alone: the replay
   launch's ``joint_states``, which its state publisher turns into /tf) has this many subscriptions (default 0), at
