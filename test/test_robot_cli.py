@@ -828,8 +828,8 @@ def test_a_command_killed_takes_its_outputs_back(tmp_path, sig, status, word):
 
     env = {'PYTHONPATH': str(Path(gpr_kinematics.__file__).parents[1]), 'PATH': '/usr/bin:/bin'}
     proc = subprocess.Popen([sys.executable, '-m', 'gpr_kinematics', 'program', 'export', str(PROGRAM), '--samples',
-                             's.json', '--waypoints', 'w.csv', '--rate', '5000'], cwd=tmp_path, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             's.json', '--waypoints', 'w.csv', '--rate', '5000', '--no-progress'], cwd=tmp_path,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         end = time.monotonic() + 60.0
         while not any(tmp_path.iterdir()) and proc.poll() is None and time.monotonic() < end:
