@@ -270,11 +270,11 @@ def test_tenfold_arm_accelerations_make_the_wafer_slip(tmp_path, fast_robot):
     assert d['safe'] is False and d['collisions'] == [] and d['max_slip_ratio'] > 1.0
     csv_path = tmp_path / 'samples.csv'
     res = gpr('program', 'export', str(PROGRAM), '--robot', str(fast_robot), '--samples', str(csv_path), '--rate',
-              '1000', cwd=tmp_path)   # refused: the tables drive a controller as a trajectory does
+              '1000', '--no-progress', cwd=tmp_path)   # refused: the tables drive a controller as a trajectory does
     assert res.returncode == 1 and not csv_path.exists() and res.stderr.endswith(
         '; --force writes the tables anyway, for analysis (status 1)\n'), res.stderr
     res = gpr('program', 'export', str(PROGRAM), '--robot', str(fast_robot), '--samples', str(csv_path), '--rate',
-              '1000', '--force', cwd=tmp_path)   # written for this analysis, status 1, the reason on stderr
+              '1000', '--force', '--no-progress', cwd=tmp_path)   # for analysis: status 1, the reason on stderr
     assert res.returncode == 1 and res.stderr.startswith('gpr program export: warning: the program itself is not '
                                                          'safe: the wafer slips on the blade'), res.stderr
     assert 'allowed:' not in res.stderr and res.stderr.endswith(   # the refusal's 'allowed:' is no warning's
