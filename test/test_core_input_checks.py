@@ -262,3 +262,28 @@ def test_a_wrong_count_of_machines_is_named_before_their_rows():
     """Three machines for two rod rows, each row of one parameter left at 0: it named row 0's joint triangle."""
     with pytest.raises(InputError, match=r'^3 parameter rows for 2 rod-length rows; allowed: one machine per sample'):
         forward_batch(np.full((2, 3), 0.1), parameters=np.zeros((3, 1)), names=['rod1_x'])
+
+
+def test_an_array_where_a_name_is_asked_is_refused_by_name():
+    """An attacker's review: an array given as the model's or the weighting's name, as the overrides or as the
+    parameters' names raised numpy's "truth value of an array is ambiguous" or "iteration over a 0-d array"; now
+    the package's errors naming the argument and what is allowed."""
+    from gpr_kinematics.core.config import GprConfig, load_config
+    from gpr_kinematics.errors import ConfigError
+
+    array = np.zeros(3)
+    for call in (lambda: forward([0.3] * 3, model=array), lambda: compensate([0, 0, 0.3], QUAT, model=array)):
+        with pytest.raises(InputError, match=r'unknown virtual-joint model array\(\[0., 0., 0.\]\); allowed: radial, '):
+            call()
+    with pytest.raises(ConfigError, match=r'model = array\(\[0., 0., 0.\]\) is invalid; allowed: radial or polar'):
+        GprConfig(model=array)
+    with pytest.raises(ConfigError, match=r'weighting = array\(\[\], dtype=float64\) is invalid; allowed: '):
+        GprConfig(weighting=np.zeros(0))
+    with pytest.raises(ConfigError, match=r'^overrides: model = array\('):
+        load_config(overrides={'model': array})
+    with pytest.raises(ConfigError, match=r'^overrides: expected a mapping of keys to values, got ndarray'):
+        load_config(overrides=array)
+    with pytest.raises(InputError, match=r"geometry parameter names must be a list of names, got array\('x'"):
+        forward_batch([[0.3] * 3], parameters=np.zeros(1), names=np.array('x'))
+    assert forward([0.3] * 3, model='').tilt == forward([0.3] * 3, model=None).tilt == 0.0
+    assert load_config(overrides={}) == load_config()

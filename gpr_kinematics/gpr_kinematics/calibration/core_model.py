@@ -27,6 +27,7 @@ from ..core.naive import centres_tilt
 from ..core.ops import ARRAY
 from ..core.parameters import PARAMETER_NAMES, PARAMETERS
 from ..core.stroke import stroke_words
+from ..core.virtual_joints import model_name
 from ..errors import ConfigError, InputError, brief
 from ..inputs import safe_yaml
 from .files import comment_lines, write_text
@@ -87,7 +88,7 @@ class CoreModel:
         if not isinstance(config, GprConfig):
             raise InputError(f'config = {brief(config)}; allowed: a GprConfig (load_config, default_config)')
         self.config = config
-        self.model = MODEL if model in (None, '') else str(model)
+        self.model = MODEL if model is None or isinstance(model, str) and not model else model_name(config, model)
         self._parameters = geometry_parameters(config, scales)
 
     @property

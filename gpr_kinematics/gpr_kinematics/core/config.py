@@ -242,7 +242,7 @@ def _convert(merged: Mapping[str, YamlValue], source: str, length_follows_radius
         conv[key] = val
     conv['rod_azimuths'] = _azimuths(source, merged['rod_azimuths'])
     for key, choices in (('model', MODELS), ('weighting', WEIGHTINGS)):
-        if merged[key] not in choices:
+        if not isinstance(merged[key], str) or merged[key] not in choices:   # an array's `in` raised numpy's error
             raise _fail(source, key, merged[key], ' or '.join(choices))
         conv[key] = merged[key]
     iters = merged['max_iterations']
@@ -383,6 +383,6 @@ def load_config(path: str | Path | None = None,
         # a calibrated file's covariance of its fitted parameters: checked here, read by load_covariance
         data, _ = split_covariance(_read_yaml(path, empty=False), str(path))
         cfg = _build(cfg, data, str(path))
-    if overrides:
+    if overrides is not None and (not isinstance(overrides, Mapping) or overrides):   # _build names a non-mapping
         cfg = _build(cfg, overrides, overrides_source)
     return cfg

@@ -366,7 +366,10 @@ def _indices(names: Sequence[str] | None) -> list[GeometryParameter]:
     if names is None:
         return list(PARAMETERS)
     by_name = {p.name: p for p in PARAMETERS}
-    given = list(names) if isinstance(names, Iterable) and not isinstance(names, str) else None
+    try:   # a 0-d array is an Iterable that cannot be iterated
+        given = list(names) if isinstance(names, Iterable) and not isinstance(names, str) else None
+    except TypeError:
+        given = None
     if given is None or not all(isinstance(n, str) for n in given):
         raise InputError(f'geometry parameter names must be a list of names, got {brief(names)}; allowed: '
                          + ', '.join(PARAMETER_NAMES))

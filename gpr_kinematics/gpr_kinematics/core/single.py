@@ -32,7 +32,7 @@ from .machine import Floats3, MachineGeometry
 from .naive import NaiveState, leaning
 from .ops import SCALAR
 from .platform_pose import FitFloats
-from .virtual_joints import Closure, Components, VirtualJointModel, make_model, not_converged, side_errors
+from .virtual_joints import Closure, Components, VirtualJointModel, make_model, model_name, not_converged, side_errors
 
 #: Joint centres ``(x, y, z)``, each a list over the rods ``k`` [m].
 Centres = tuple[list[float], list[float], list[float]]
@@ -370,7 +370,7 @@ class OnePose:
 def one_pose(config: GprConfig, model: str | None = None) -> OnePose:
     """The :class:`OnePose` of ``config`` under ``model`` (default: ``config.model``), built once and kept with the
     config."""
-    key = f'one_pose:{model or config.model}'
+    key = f'one_pose:{model_name(config, model)}'
     kernel: OnePose | None = config.derived.get(key)
     if kernel is None:
         kernel = config.derived[key] = OnePose(config, make_model(config, model))

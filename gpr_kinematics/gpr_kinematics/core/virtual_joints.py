@@ -157,14 +157,21 @@ class VirtualJointModel:
         return d2 - L2, J, np.sqrt(d2)
 
 
+def model_name(config: GprConfig, model: str | None) -> str:
+    """The name of the virtual-joint model ``model`` (None or '': ``config.model``), or :class:`InputError` naming
+    what was given and what is allowed."""
+    name = config.model if model is None or isinstance(model, str) and not model else model
+    if not isinstance(name, str) or name not in MODELS:
+        raise InputError(f"unknown virtual-joint model {brief(name)}; allowed: {', '.join(MODELS)}, or None or '' for "
+                         f"the configuration's model ({config.model})")
+    return name
+
+
 def make_model(config: GprConfig, model: str | None = None,
                geometry: MachineGeometry | None = None) -> VirtualJointModel:
     """The virtual-joint model named ``model`` (default: ``config.model``) for ``config``'s geometry, or for
     ``geometry`` (one machine per row, :meth:`MachineGeometry.per_row`) when it is given."""
-    name = config.model if model in (None, '') else model
-    if name not in MODELS:
-        raise InputError(f"unknown virtual-joint model {brief(name)}; allowed: {', '.join(MODELS)}, or None or '' for "
-                         f"the configuration's model ({config.model})")
+    name = model_name(config, model)
     if geometry is not None:
         angles = [np.arctan2(s, c) for s, c in zip(geometry.sin, geometry.cos, strict=True)]
         return VirtualJointModel(str(name), geometry.rho, (angles[0], angles[1], angles[2]), geometry.cos,
