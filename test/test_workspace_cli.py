@@ -311,11 +311,16 @@ def test_a_delta_too_small_for_the_box_exits_2(capsys):
 
 def test_a_box_of_volume_zero_exits_2_with_one_line(capsys):
     """Links of 1e-300 m: a traceback (ZeroDivisionError of the progress), after a warning that the box is not
-    divided; now the one line naming the volume, before any warning."""
+    divided; now the one line naming the volume, before any warning (for a box given so; such links are refused as
+    lengths since)."""
+    code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '1e-115', '--set',
+                          'workspace={box: {x: [0, 1e-110], y: [0, 1e-110], z: [0, 1e-110]}}')
+    assert code == 2 and err.count('\n') == 1 and 'Traceback' not in err, err
+    assert err.startswith('gpr workspace: error: the initial box has volume 0 (the product of its edges [1e-110, '), err
     code, out, err = _run(capsys, 'shell_arm.yaml', '--delta', '0.05', '--set', 'l1=1e-300', '--set', 'l2=1e-300',
                           '--set', 'workspace={}')   # the box of the links' reach, [-2e-300, 2e-300]^3
-    assert code == 2 and err.count('\n') == 1 and 'Traceback' not in err, err
-    assert err.startswith('gpr workspace: error: the initial box has volume 0 '), err
+    assert (code, err) == (2, 'gpr workspace: error: shell_arm: l1 = 1e-300; allowed: a length from 1e-06 to 1e+06 '
+                              'm\n')
 
 def test_the_box_limit_stops_a_run_and_keeps_a_valid_result(capsys):
     code, out, err = _run(capsys, 'tripod_3rps.yaml', '--delta', '0.001', '--json', '--max-boxes', '20000',

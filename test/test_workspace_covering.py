@@ -517,15 +517,16 @@ def test_a_delta_below_the_float_spacing_of_the_bounds_is_refused():
 
 
 def test_an_initial_box_of_volume_underflowing_to_zero_is_refused():
-    """Links of 1e-300 m give the box [-2e-300, 2e-300]^3, of volume 0 in float64: the run divided its progress
-    by that volume (ZeroDivisionError). A box whose volume is not a normal float is an InputError naming it."""
-    model = ShellArmModel(1e-300, 1e-300)
+    """Links of 1e-300 m gave the box [-2e-300, 2e-300]^3, of volume 0 in float64: the run divided its progress
+    by that volume (ZeroDivisionError). A box whose volume is not a normal float is an InputError naming it (such
+    links are refused as lengths since: a box given so)."""
+    model = ShellArmModel(box=np.array([[0.0, 1e-110]] * 3))
     assert float(np.prod(model.box[:, 1] - model.box[:, 0])) == 0.0
     with pytest.raises(InputError, match=r'the initial box has volume 0 .*allowed: a box of volume at least '
                                          r'2\.23e-308'):
-        approximate(model, 1e-301)
-    tiny = ShellArmModel(1e-100, 1e-100)                    # volume 6.4e-299: still a normal float, covered
-    res = approximate(tiny, 1e-101)
+        approximate(model, 1e-115)
+    tiny = ShellArmModel(1e-6, 1e-6)                        # the least links: volume 6.4e-17, covered
+    res = approximate(tiny, 1e-7)
     assert 0.0 < res.inner_volume <= tiny.exact_volume() <= res.outer_volume
 
 

@@ -274,9 +274,26 @@ def test_models_refuse_parameters_that_are_not_finite(make, match):
     """The Python API took NaN and infinite parameters (a NaN base radius gave a covering of nothing, 290 boxes
     'outside'; a NaN floor 1.1 million boundary boxes) and angle scales of 0 or below (the angles never bisected):
     each is refused, named, with what is allowed."""
-    with pytest.raises(ConfigError, match=f'{match}; allowed: a (positive )?finite number'):
+    with pytest.raises(ConfigError, match=f'{match}; allowed: a (positive )?(finite number|length from 1e-06 to '
+                                          r'1e\+06 m)'):
         make()
     assert ShellArmModel(floor=-math.inf).lower[1] == -math.inf        # no floor: still allowed
+
+
+@pytest.mark.parametrize('make, match', [
+    (lambda: TripodModel(angle_scale=1e-300), r'angle_scale = 1e-300; allowed: a length from 1e-06 to 1e\+06 m \(m '
+                                              r"per rad: the angles' weight in a box's diameter\)"),
+    (lambda: TripodModel(base_radius=5e-324), r'base_radius = 5e-324; allowed: a length from 1e-06 to 1e\+06 m$'),
+    (lambda: Rrr3PlanarModel(coupler=2e6), r'coupler = 2000000.0; allowed: a length from 1e-06'),
+    (lambda: GprModel(angle_scale=1e-7), r'angle_scale = 1e-07; allowed: a length from 1e-06'),
+])
+def test_models_refuse_lengths_and_angle_scales_beyond_the_packages_lengths(make, match):
+    """An attacker's review: an ``angle_scale`` of 1e-300 (the angles never bisected: 16 boundary boxes over the
+    whole box) and a subnormal radius passed; lengths and angle scales are held to the core's least length and the
+    coordinates' bound, as a mechanism's characteristic length is. Their least and most are taken."""
+    with pytest.raises(ConfigError, match=match):
+        make()
+    assert TripodModel(angle_scale=1e-6).scale[1] == 1e-6 and TripodModel(base_radius=1e6).R == 1e6
 
 
 def test_tripod_joint_directions_enclose_the_exact_120_and_240_degrees():

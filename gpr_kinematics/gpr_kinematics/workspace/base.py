@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from ..core.config import LEAST_LENGTH
 from ..errors import ConfigError, InputError, brief
-from ..inputs.validation import float_array, number_rows, plain_number
+from ..inputs.validation import MAX_COORDINATE, float_array, number_rows, plain_number
 from .boxes import box_volume
 from .interval import Interval
 
@@ -321,18 +322,30 @@ def workspace_report(model: WorkspaceModel, result: WorkspaceResult) -> Workspac
                            scale=np.asarray(model.scale)[out], volume_units='*'.join(result.units))
 
 
-def check_parameters(model: str, positive: Mapping[str, float | None] | None = None,
-                     finite: Mapping[str, float | None] | None = None) -> None:
+#: Range of a model's lengths [m] and of its ``angle_scale`` [m per rad]: the GPR core's least length to every
+#: coordinate's bound (a radius of 5e-324 m passed, and an ``angle_scale`` of 1e-300 never bisected the angles).
+LENGTHS = (LEAST_LENGTH, MAX_COORDINATE)
+
+
+def check_parameters(model: str, lengths: Mapping[str, float | None] | None = None,
+                     finite: Mapping[str, float | None] | None = None,
+                     positive: Mapping[str, float | None] | None = None) -> None:
     """:class:`ConfigError` naming the first parameter of a model's constructor that is not a finite number (NaN and
-    infinite radii were accepted by the Python API and gave coverings of nothing), or, among ``positive``, not
-    above 0 (an ``angle_scale`` of 0 or below never bisected the angles). ``None`` values (defaults) are skipped."""
-    for kind, values in (('a positive finite number', positive or {}), ('a finite number', finite or {})):
+    infinite radii were accepted by the Python API and gave coverings of nothing), among ``lengths`` not within
+    :data:`LENGTHS`, or among ``positive`` not above 0 (an ``angle_scale`` of 0 or below never bisected the angles).
+    ``None`` values (defaults) are skipped."""
+    lo, hi = LENGTHS
+    for kind, values in ((f'a length from {lo:g} to {hi:g} m', lengths or {}), ('a finite number', finite or {}),
+                         ('a positive finite number', positive or {})):
         for name, value in values.items():
             if value is None:
                 continue
             v = plain_number(value)
-            if not math.isfinite(v) or (kind.startswith('a positive') and v <= 0):
-                raise ConfigError(f'{model}: {name} = {brief(value)}; allowed: {kind} (SI units)')
+            if not math.isfinite(v) or (kind.startswith('a positive') and v <= 0) or (
+                    kind.startswith('a length') and not lo <= v <= hi):
+                unit = ' (m per rad: the angles\' weight in a box\'s diameter)' if name == 'angle_scale' else ''
+                raise ConfigError(f'{model}: {name} = {brief(value)}; allowed: {kind}{unit}'
+                                  + ('' if kind.startswith('a length') else ' (SI units)'))
 
 
 def check_delta(delta: float, box: np.ndarray, scale: np.ndarray) -> None:

@@ -69,9 +69,9 @@ class GprModel(WorkspaceModel):
         angle_scale: float | None = None,
         max_tilt: float = MAX_TILT,
     ) -> None:
-        check_parameters(self.name, {'radius': radius, 'imperfection_budget': imperfection_budget,
-                                     'angle_scale': angle_scale, 'max_tilt': max_tilt},
-                         {'stroke_min': stroke_min, 'stroke_max': stroke_max})
+        check_parameters(self.name, {'radius': radius, 'angle_scale': angle_scale},
+                         {'stroke_min': stroke_min, 'stroke_max': stroke_max},
+                         {'imperfection_budget': imperfection_budget, 'max_tilt': max_tilt})
         if radius <= 0 or not stroke_min < stroke_max or imperfection_budget <= 0:
             raise ConfigError(
                 'gpr workspace needs radius > 0, stroke_min < stroke_max, imperfection_budget > 0'
