@@ -264,7 +264,8 @@ def test_check_world_position_bound_and_hint():
     """The public check itself: 100 m passes, 100 m + 1 um is refused; the hint ({mm}: the farthest coordinate as
     millimetres) where that fits the bound, 100 000 m exactly (100 m as millimetres) included, not at 2e5 m."""
     from gpr_kinematics.errors import InputError
-    from gpr_kinematics.robot.fields import WORLD_BOUND, check_world_position
+    from gpr_kinematics.inputs.validation import WORLD_BOUND
+    from gpr_kinematics.robot.fields import check_world_position
 
     assert WORLD_BOUND == 100.0
     for xyz in ([100.0, 0.0, 0.0], [-100.0, 100.0, -100.0]):

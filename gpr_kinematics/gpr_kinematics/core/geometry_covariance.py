@@ -22,13 +22,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError, brief, kind_of
 from ..inputs.safe_yaml import YamlValue
-from ..inputs.schema import check_keys, is_number, read_yaml
+from ..inputs.schema import check_keys, is_number, orientation_angle, read_yaml
+from ..inputs.validation import WORLD_BOUND
 from .parameters import PARAMETER_NAMES
 
 #: The key of the block in a geometry file.
@@ -111,8 +113,10 @@ def _names(value: YamlValue, where: str, base: bool) -> tuple[str, ...]:
 
 
 def _base(value: YamlValue, where: str) -> RegisteredBase:
-    """The registration's ``base``: a frame's name, a position and rpy of 3 finite numbers each."""
-    allowed = f'allowed: {_BASE}, numbers finite and at most {MAX_ENTRY:g} in magnitude'
+    """The registration's ``base``: a frame's name, a position within :data:`WORLD_BOUND` of the frame's origin (a
+    tracker stands in the cell) and rpy angles within one turn (:func:`orientation_angle`): millimetres or degrees
+    passed and were blamed on the measurements later."""
+    allowed = f'allowed: {_BASE}, each coordinate within +-{WORLD_BOUND:g} m, each angle within [-2pi, 2pi] rad'
     if not isinstance(value, Mapping):
         raise ConfigError(f'{where}: base = {brief(value)} is invalid; {allowed}')
     check_keys(value, ('frame', 'position', 'rpy'), f'{where}: base')
@@ -122,9 +126,17 @@ def _base(value: YamlValue, where: str) -> RegisteredBase:
     pose: list[float] = []
     for key in ('position', 'rpy'):
         v = value.get(key)
-        if not isinstance(v, list) or len(v) != 3 or not all(is_number(x) and abs(float(x)) <= MAX_ENTRY for x in v):
+        if not isinstance(v, list) or len(v) != 3 or not all(is_number(x) for x in v):
             raise ConfigError(f'{where}: base: {key} = {brief(v)} is invalid; {allowed}')
         pose += [float(x) for x in v]
+    far = max(abs(x) for x in pose[:3])
+    if far > WORLD_BOUND:
+        hint = (f'; as millimetres it would be {far / 1000.0:g} m: millimetres given as metres? (SI: m)'
+                if far / 1000.0 <= WORLD_BOUND else '')
+        raise ConfigError(f'{where}: base: position = {brief(value.get("position"))} m is beyond the cell; '
+                          f'allowed: each coordinate within +-{WORLD_BOUND:g} m of the frame\'s origin{hint}')
+    rpy = cast('list[YamlValue]', value.get('rpy'))
+    pose[3:] = [orientation_angle(x, f'rpy[{i}]', f'{where}: base') for i, x in enumerate(rpy)]
     return RegisteredBase(frame, tuple(pose))
 
 

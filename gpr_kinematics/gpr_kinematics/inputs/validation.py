@@ -22,6 +22,9 @@ QUATERNION_NORM_TOLERANCE = 1e-6
 #: mechanisms and stations the package accepts: far beyond any of them, and small enough that no product of a few
 #: of them overflows.
 MAX_COORDINATE = 1e6
+#: The largest coordinate [m] of a place in the world: the robot's base, a station, a cell's obstacle, a registered
+#: base in a tracker's frame (a cell is a few metres; 2300 m is a station in millimetres read as metres).
+WORLD_BOUND = 100.0
 #: One turn [rad]: the most an orientation angle (a heading, an azimuth, a yaw, an rpy angle) of a file or of the
 #: command line may be; beyond it the value is degrees written as radians (``heading: 90``: 14.3 turns) almost surely.
 TURN = 2.0 * math.pi

@@ -7,10 +7,10 @@ import math
 from typing import Any
 
 from ..errors import InputError
-from ..inputs.validation import MAX_COORDINATE, beyond_turn, finite_vector, within_turn
+from ..inputs.validation import MAX_COORDINATE, WORLD_BOUND, beyond_turn, finite_vector, within_turn
 from ..robot import Stations
 from ..robot.description import BRANCHES, Arm, RobotDescription
-from ..robot.fields import WORLD_BOUND, check_world_position
+from ..robot.fields import check_world_position
 from ..robot.inverse import held_refusal
 from ..robot.one_station import StationFloats, station_floats
 from ..robot.planar_arm import branch_sign

@@ -49,10 +49,10 @@ from ..errors import ConfigError, brief, kind_of
 from ..inputs.resources import config_path
 from ..inputs.schema import check_keys, read_yaml
 from ..inputs.stacked import Stacked
+from ..inputs.validation import WORLD_BOUND
 from .collision import ArmBodies, GprBodies, WaferShape, parse_arm_bodies, parse_gpr_bodies, parse_wafer
 from .fields import (
     LEAST,
-    WORLD_BOUND,
     _angle,
     _mapping,
     _name,

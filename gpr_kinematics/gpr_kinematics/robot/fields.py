@@ -10,7 +10,7 @@ from typing import Any
 from ..core.messages import ROD_JOINT_NAMES
 from ..errors import ConfigError, GprError, brief, kind_of
 from ..inputs.schema import is_huge_number, number_key, orientation_angle
-from ..inputs.validation import TURN, TURN_SLACK, radians_hint, text_hint
+from ..inputs.validation import TURN, TURN_SLACK, WORLD_BOUND, radians_hint, text_hint
 
 _NAME = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,63}')
 NAME_RULE = 'a name of letters, digits and _ starting with a letter, at most 64 characters'
@@ -32,10 +32,6 @@ def _number(data: Mapping[str, Any], key: str, where: str, lo: float, hi: float,
         raise ConfigError(f'{where}: {key} = {brief(value)} is invalid; allowed: {allowed}')
     return value
 
-
-#: The largest coordinate [m] of a place in the world: the robot's base, a station, a cell's obstacle (a cell is a
-#: few metres; 2300 m is a station in millimetres read as metres).
-WORLD_BOUND = 100.0
 
 def check_world_position(xyz: Sequence[float], label: str, mm_hint: str = '',
                          error: type[GprError] = ConfigError, typed: str | None = None) -> None:

@@ -40,9 +40,9 @@ from ..inputs.files import path_name, read_text
 from ..inputs.safe_yaml import MAX_BYTES
 from ..inputs.schema import check_keys, is_number, orientation_angle
 from ..inputs.units import ANGLE_UNITS, LENGTH_UNITS, to_si
-from ..inputs.validation import MAX_COORDINATE, decimal, number_hint, text_hint
+from ..inputs.validation import MAX_COORDINATE, WORLD_BOUND, decimal, number_hint, text_hint
 from .description import BRANCHES
-from .fields import WORLD_BOUND, check_world_position
+from .fields import check_world_position
 from .stations import Stations, name_refusal
 
 #: Most stations in a program (a station file is read up to the YAML files' bound, :data:`MAX_BYTES`).
@@ -141,7 +141,7 @@ def _number(value: Any, where: str, key: str, unit: str, rule: str = '') -> floa
 
 
 def _position(xyz: tuple[float, float, float], where: str, unit: str) -> tuple[float, float, float]:
-    """A station's position [m] within :data:`~.fields.WORLD_BOUND` of the world origin
+    """A station's position [m] within :data:`~gpr_kinematics.inputs.validation.WORLD_BOUND` of the world origin
     (:func:`~.fields.check_world_position`; the mm hint where the file's metres would fit as millimetres): an unused
     imported station at 2.3 km (a CSV in millimetres without its unit) passed the program's check unmentioned."""
     check_world_position(xyz, f'{where}: position', '; as millimetres it would be {mm} m: millimetres given as '

@@ -37,8 +37,7 @@ from ..core.rotations import rotation_z, rpy_matrix, tilt_rotation
 from ..errors import ConfigError, brief, key_value, kind_of
 from ..inputs.schema import check_keys, is_number, is_version, orientation_angle, read_yaml
 from ..inputs.units import to_si
-from ..inputs.validation import TURN, TURN_SLACK, text_hint
-from ..robot.fields import WORLD_BOUND
+from ..inputs.validation import TURN, TURN_SLACK, WORLD_BOUND, text_hint
 from ..robot.station_files import DECLARE_DEG, units_of
 
 Array = NDArray[np.float64]
@@ -137,6 +136,10 @@ def _rotation(data: Mapping[str, Any], where: str, angle: float, aunit: str) -> 
                       dtype=np.float64)
 
 
+#: The least width and height of a chamber's slit [m].
+_LEAST_SLIT = 1e-3
+
+
 def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, position: Array, R: Array
              ) -> list[Obstacle]:
     if not isinstance(raw, Mapping):
@@ -146,7 +149,18 @@ def _chamber(raw: Any, name: str, where: str, length: float, lunit: str, positio
     w = f'{where}: chamber'
     dx, dy, dz = _vector(raw.get('size'), w, 'size', 3, _LEAST, _SIZE, lunit, length)
     wall = _default(raw, 'wall', 0.02, w, _LEAST, min(dx, dy, dz) / 2, lunit, length)
-    sw, sh = (0.34, 0.04) if 'slit' not in raw else _vector(raw['slit'], w, 'slit', 2, 1e-3, _SIZE, lunit, length)
+    inside = min(dy, dz) - 2 * wall
+    if inside <= _LEAST_SLIT + _EVEN:   # the slit's refusal asked for one of 0 x 0 mm
+        most = (min(dy, dz) - _LEAST_SLIT - _EVEN) / 2
+        what = (f'a wall thinner than {most / length:.6g} {lunit}' if most >= _LEAST else
+                f'a chamber wider and higher than {(_LEAST_SLIT + _EVEN + 2 * _LEAST) / length:.6g} {lunit}')
+        wide, high = (max(d - 2 * wall, 0.0) / length for d in (dy, dz))
+        raise ConfigError(f'{w}: wall = {wall / length:.6g} {lunit} leaves the chamber of size '
+                          f'{dx / length:.6g} x {dy / length:.6g} x {dz / length:.6g} {lunit} an inside {wide:.6g} '
+                          f'{lunit} wide and {high:.6g} {lunit} high: no room for a slit of {_LEAST_SLIT / length:g} '
+                          f'{lunit} or more; allowed: {what}')
+    sw, sh = (0.34, 0.04) if 'slit' not in raw else _vector(raw['slit'], w, 'slit', 2, _LEAST_SLIT, _SIZE, lunit,
+                                                            length)
     if sw >= dy - 2 * wall - _EVEN or sh >= dz - 2 * wall - _EVEN:
         given = brief(raw['slit']) if 'slit' in raw else f'(the default {sw * 1000:g} x {sh * 1000:g} mm)'
         raise ConfigError(f'{w}: slit = {given} is invalid; allowed: narrower and lower than the chamber inside its '
