@@ -410,3 +410,11 @@ def test_numpy_scalars_are_named_by_their_numbers():
                     sweep_grid(passes=2, tilt_step=0.0078125, max_tilt=0.03125), strict=True):
         np.testing.assert_array_equal(a, b)
     assert paper_sweep(height=np.float32(0.5)).height == 0.5
+
+
+def test_a_folder_that_refuses_the_temporary_file_says_what_is_allowed(tmp_path):
+    """An attacker's review: ``--waypoints /proc/self/fd/1.csv`` passed the output's checks (its folder exists) and
+    was refused without an 'allowed:' when the temporary file could not be made there."""
+    with pytest.raises(FileError, match=r"^cannot write joint table file '/proc/self/fd/1\.csv': .*; allowed: a new "
+                       r'file or a regular file to replace, in a folder where files can be created$'):
+        files.write_text('/proc/self/fd/1.csv', 'x', 'joint table')

@@ -163,6 +163,13 @@ def _chamber(**changes):
     ({'slit_z': 0.125}, 'slit_z = 0.125 is invalid; allowed: a finite number in m, -0.11 to 0.11 m after conversion'),
     ({'size': [0.5, 0.3, 0.3], 'slit': None}, 'slit = (the default 340 x 40 mm) is invalid; allowed: narrower and '
                                               'lower than the chamber inside its walls, 0.26 x 0.26 m'),  # 'None'
+    # walls filling the chamber: the slit's refusal allowed one of 0 x 0 m
+    ({'size': [0.5, 0.4, 0.3], 'wall': 0.15}, 'wall = 0.15 m leaves the chamber of size 0.5 x 0.4 x 0.3 m an inside '
+                                              '0.1 m wide and 0 m high: no room for a slit of 0.001 m or more; '
+                                              'allowed: a wall thinner than 0.1495 m'),
+    ({'size': [0.5, 0.4, 0.002], 'wall': 0.001}, 'wall = 0.001 m leaves the chamber of size 0.5 x 0.4 x 0.002 m an '
+                                                 'inside 0.398 m wide and 0 m high: no room for a slit of 0.001 m or '
+                                                 'more; allowed: a chamber wider and higher than 0.003 m'),
 ])
 def test_a_slit_beyond_the_chambers_inside_is_refused(changes, allowed):
     """A chamber 0.4 m wide and 0.3 m high with 20 mm walls: its slit (40 mm high) within the inside, 0.36 m wide
@@ -351,3 +358,33 @@ def test_an_orientation_in_degrees_in_a_cell_in_radians_is_named(key):
     np.testing.assert_allclose(deg, expected(math.pi / 2), atol=1e-15)
     R = parse_cell(cell(obstacle(6.2, math.radians(1.0)))).obstacles[0].rotation
     np.testing.assert_allclose(R, expected(6.2), atol=1e-15)
+
+
+@pytest.mark.parametrize('option', ['--trajectory', '--samples', '--waypoints'])
+def test_an_export_over_the_cell_is_refused_before_the_check(tmp_path, monkeypatch, capsys, option):
+    """The trajectory written over the program's cell was refused only once the check (2 s and more) had read the
+    cell; it is noted once the program is read, and the check is never started (counted)."""
+    import shutil
+
+    import gpr_kinematics.safety.check as check
+    from gpr_kinematics.cli.main import main
+
+    for folder in ('programs', 'robots', 'cells'):
+        shutil.copytree(config_path(folder), tmp_path / folder)
+    shutil.copy(tmp_path / 'cells' / 'example_cell.yaml', tmp_path / 'cells' / 'cell.csv')
+    text = (tmp_path / 'programs' / 'example_cell_program.yaml').read_text()
+    (tmp_path / 'programs' / 'p.yaml').write_text(text.replace('example_cell.yaml', 'cell.csv'))
+    calls = []
+    monkeypatch.setattr(check, 'check_program', lambda *a, **k: calls.append(a))
+    monkeypatch.chdir(tmp_path)
+    output = 'cells/cell.yaml' if option == '--trajectory' else 'cells/cell.csv'
+    if option == '--trajectory':
+        shutil.move('cells/cell.csv', output)
+        (tmp_path / 'programs' / 'p.yaml').write_text(text.replace('example_cell.yaml', 'cell.yaml'))
+    before = (tmp_path / output).read_bytes()
+    assert main(['program', 'export', 'programs/p.yaml', option, output]) == 2
+    what = 'trajectory' if option == '--trajectory' else 'joint table'
+    assert capsys.readouterr().err == (f"gpr program export: error: {what} output '{output}' is a file this "
+                                       'command reads; allowed: a file the command does not read (write the output '
+                                       'elsewhere)\n')
+    assert calls == [] and (tmp_path / output).read_bytes() == before

@@ -184,6 +184,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     sample_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
     _check_trajectory_output(args)
     _, plan = program_plan(args, args.rate if at_rate else None)
+    _outputs_read_nowhere(args, plan)
     if args.trajectory is not None:   # before any file is written
         from ..robot.trajectory import within_a_day
         within_a_day(plan.timing.total + args.lead_in, f'{plan.program.source}: the trajectory'
@@ -219,6 +220,20 @@ def _cmd_export(args: argparse.Namespace) -> int:
               'for a controller', file=sys.stderr)
         return 1
     return 0
+
+
+def _outputs_read_nowhere(args: argparse.Namespace, plan: Any) -> None:
+    """The outputs checked again once the program, its robot and stations are read, its cell noted (its check reads
+    it): a trajectory written over the cell was refused only after the check's work."""
+    import contextlib
+    import os
+
+    from ..inputs.files import check_output, note_read
+    with contextlib.suppress(OSError, TypeError):   # no cell (None), or none there: its reader says so
+        note_read(os.stat(plan.program.cell))
+    for path, what in ((args.waypoints, 'joint table'), (args.samples, 'joint table'), (args.trajectory, 'trajectory')):
+        if path is not None:
+            check_output(path, what)
 
 
 def _checked(report: SafetyReport | None) -> dict[str, JsonValue]:

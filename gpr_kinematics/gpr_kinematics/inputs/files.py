@@ -7,11 +7,10 @@ UTF-8 (a leading byte-order mark is dropped), and an error names the line and th
 byte.
 
 Writing (:func:`atomic_output`, :func:`write_text`) refuses, before any work and again just before the file is
-replaced, an empty path, an existing directory, FIFO, device or socket (a rename would replace a device node
-when run as root, and a write into a FIFO blocks), and an output whose folder is missing or not writable. The
-text goes to a temporary file in the same folder, which then replaces the target in one rename, so an
-interrupted run never leaves half a file. An existing symbolic link is refused too (the output would land
-elsewhere than named). The functions return the path written so that a command can say what it wrote where.
+replaced, an empty path, an existing directory, FIFO, device, socket (a rename replaced a device node as root, a
+write into a FIFO blocks) or symbolic link (the output would land elsewhere), and a folder missing or not writable.
+A temporary file in the folder replaces the target in one rename: an interrupted run never leaves half a file.
+The functions return the path written so that a command can say what it wrote where.
 
 Two rules hold within a context (a ``contextvars`` context: a thread, a task):
 
@@ -23,18 +22,16 @@ Two rules hold within a context (a ``contextvars`` context: a thread, a task):
 * **a command's outputs are not its inputs** (:func:`command_reads`): while a command runs, every file it reads is
   noted (device and inode, :func:`note_read`), and :func:`check_output` refuses an output that is one of them
   (``gpr calibrate M.csv --output M.csv`` overwrote its measurements with the calibrated geometry). The CLI also
-  refuses, before any work, an output named like one of its inputs (:mod:`gpr_kinematics.cli.output`);
+  refuses, before any work, an output named like one of its inputs (:mod:`gpr_kinematics.cli.output`), and
+  ``gpr program export`` notes its cell before its check reads it;
 * **all of a command's outputs or none** (:func:`command_writes`): a command that fails (an exception, Ctrl-C) after
-  some of its outputs were written takes them back: files it created are removed, files it replaced get their old
-  content back (a hard link kept until the command ends), folders it created are removed when empty (``gpr program
-  export --waypoints W --samples S`` left ``W`` when ``S`` could not be written). Only what still holds what the
-  command wrote is taken back: an output another process replaced meanwhile is left as it is, and a command that
-  ends to find one of its outputs replaced fails naming it (two commands writing the same pair of files both said
-  they had written it, each file of another command). Files it removed (:func:`remove_output`) are put back.
+  writing some outputs takes them back: files it created removed, files it replaced given their old content back (a
+  hard link kept until the end), folders it created removed when empty, files it removed (:func:`remove_output`) put
+  back. What another process replaced meanwhile is left, and a command that ends to find one of its outputs replaced
+  fails naming it (two commands writing the same pair of files each said it had written both).
 
-Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, and
-what is allowed.
-"""
+Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, what is
+allowed."""
 from __future__ import annotations
 
 import contextlib
@@ -420,8 +417,11 @@ def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False)
             yield fh
         check_output(target, what)  # the target may have been replaced by something else meanwhile
         _replace(tmp, target)
-    except OSError as exc:
-        raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}') from None
+    except OSError as exc:   # no temporary file in the folder (/proc/self/fd/1.csv), or the writing failed
+        allowed = ('a new file or a regular file to replace, in a folder where files can be created' if not_made
+                   else 'an output with room for it')
+        raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}; allowed: {allowed}'
+                        ) from None
     finally:
         if not not_made:
             with contextlib.suppress(FileNotFoundError):
