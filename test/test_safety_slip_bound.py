@@ -619,3 +619,45 @@ def test_the_platform_joints_curvature_is_in_their_second_derivative():
     assert np.all(at.gamma == 1.0) and float(np.min(at.sigma)) == pytest.approx(0.0044, abs=1e-4)
     assert float(np.max(second / alone)) == pytest.approx(1.29, abs=0.01)
     assert np.all(second <= R[1]) and float(np.max(second / R[1])) == pytest.approx(0.46, abs=0.01)
+
+
+FULL_STRETCH_ROBOT = """name: fab_r1
+base: {frame: world, position: [2.0, 1.0, 0.05], rpy: [0.0, 0.0, 0.5]}
+rods: {names: [zA, zB, zC], velocity: 0.12, acceleration: 0.5}
+wafer: {diameter: 0.300, thickness: 0.000775, mass: 0.128}
+arms:
+  - name: lo
+    mount: {position: [0.0, 0.0, 0.07], yaw: -0.5}
+    joints:
+      - {name: lo_j1, length: 0.34, height: 0.04, lower: -3.1, upper: 3.1, velocity: 1.2, acceleration: 1.8}
+      - {name: lo_j2, length: 0.32, height: 0.04, lower: -2.8, upper: 2.8, velocity: 1.6, acceleration: 2.2}
+      - {name: lo_j3, length: 0.0, height: 0.02, lower: -3.0, upper: 3.0, velocity: 2.0, acceleration: 2.5}
+    blade: {position: [0.0, 0.0, 0.01], yaw: 0.0, wafer_centre: [0.21, 0.0, 0.004], friction: 0.35}
+    branch: right
+    home: [0.0, 2.4, -2.4]
+"""
+
+
+@pytest.mark.slow
+def test_a_straight_entry_to_a_station_near_full_stretch_is_checked_on_its_line(tmp_path):
+    """An OLP trial: a station 0.01 mm inside the arm's reach with a 300 mm straight entry was refused (exit 2, no
+    file named) 'at -0.0001 of its length': the slip's central difference took a point beyond the line's end, out of
+    reach. A line's wafer path is linear: its difference points stay on it, and the line's slip is that of its
+    profile alone (the wafer's direction of travel fixed)."""
+    (tmp_path / 'robot.yaml').write_text(FULL_STRETCH_ROBOT)
+    program = {'format': 'gpr_robot_program', 'version': 1, 'robot': 'robot.yaml',
+               'units': {'length': 'mm', 'angle': 'deg'}, 'wafers': ['far'],
+               'stations': [{'name': 'near', 'position': [2400, 1000, 450], 'heading': 0},
+                            {'name': 'far', 'position': [2869.99, 1000, 450], 'heading': 0, 'entry': 300}],
+               'steps': [{'move': 'near'}, {'pick': 'far'}, {'move': 'near'}]}
+    (tmp_path / 'p.yaml').write_text(yaml.safe_dump(program))
+    from gpr_kinematics.robot import load_robot
+    program = load_program(tmp_path / 'p.yaml')
+    plan = plan_program(load_robot(program.robot), program)
+    lines = [k for k in range(len(plan.labels) - 1) if plan.waypoints.is_line(k)]
+    assert [plan.labels[k + 1] for k in lines] == ['steps[1] (pick far, approach)', 'steps[1] (pick far, exit)']
+    k = lines[1]   # carrying: both ends of the line, where s -+ h left it
+    t = np.array([plan.timing.depart[k], plan.timing.arrive[k + 1]])
+    assert np.all(np.isfinite(slip_series(plan, t, np.array(['lo', 'lo'])).ratio))
+    report = check_program(plan, None)[0]
+    assert report.safe and 0.0 < report.max_slip_ratio < 1.0

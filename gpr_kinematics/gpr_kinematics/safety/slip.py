@@ -119,9 +119,13 @@ def slip_series(plan: ProgramPlan, times: Array, carrying: Array) -> SlipSeries:
             sel = idx[m[idx] == k]
             line = plan.waypoints.is_line(k)
             h = STEP if line else float(step)
-            p = wafer_path(plan, arm.name, int(k), np.concatenate([s[sel] - h, s[sel], s[sel] + h]))
+            # a line's wafer path is linear in s: its points kept on it (s - h at its start lay beyond the station,
+            # out of the arm's reach for one at full stretch, and refused the line)
+            back, ahead = (np.maximum(s[sel] - h, 0.0), np.minimum(s[sel] + h, 1.0)) if line else (s[sel] - h,
+                                                                                                    s[sel] + h)
+            p = wafer_path(plan, arm.name, int(k), np.concatenate([back, s[sel], ahead]))
             n = sel.size
-            d1 = (p[2 * n:] - p[:n]) / (2 * h)
+            d1 = (p[2 * n:] - p[:n]) / (ahead - back)[:, None]
             d2 = np.zeros_like(d1) if line else (p[2 * n:] - 2 * p[n:2 * n] + p[:n]) / h ** 2
             acc[sel] = d1 * dds[sel, None] + d2 * ds[sel, None] ** 2
         idx = np.flatnonzero(carrying == arm.name)
