@@ -415,7 +415,11 @@ def test_an_unknown_executor_is_refused_before_a_context_is_made(ros_environment
     (lambda c: c.station_inverse_kinematics([1.0, 0.5, 0.4], tilt='0.1'), r'^tilt, azimuth must be numbers'),
     (lambda c: c.robot_forward_kinematics([0.3] * 3, 'abc'), r'^joints must be numbers'),
     (lambda c: c.robot_forward_kinematics([0.3] * 2, [0.0, 0.0, 0.0]), r'^rods must be 3 numbers, got 2'),
-    (lambda c: c.inverse_kinematics(0.45, 0.01, 1e300), r'azimuth = 1e\+300 rad; allowed: .* \|azimuth\| <= 1e\+06'),
+    (lambda c: c.inverse_kinematics(0.45, 0.01, 1e300), r'^azimuth = 1e\+300 rad is beyond one turn; allowed: '
+                                                         r'\[-2pi, 2pi\] rad'),
+    # a ROS trial: 90 (degrees) was read as 2.04 rad, where the station service and the files refuse it
+    (lambda c: c.inverse_kinematics(0.45, 0.01, 90.0), r'^azimuth = 90 rad is beyond one turn; allowed: \[-2pi, 2pi\] '
+                                                       r'rad \(radians only here: 90 deg is 1\.57079633 rad\)'),
     (lambda c: c.inverse_kinematics(0.45, 2.0 * math.pi + 0.01, 0.0), r'allowed: \|tilt\| < pi'),
     (lambda c: c.inverse_kinematics(0.45, float('nan'), 0.0), r'^height, tilt, azimuth = \[0.45, nan, 0.0\]'),
     (lambda c: c.compensate([0.0, 0.0], [0.0, 0.0, 0.0, 1.0]), r'^position must be 3 numbers'),

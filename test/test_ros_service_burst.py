@@ -12,7 +12,7 @@ import pytest
 from gpr_kinematics.core import forward
 from gpr_kinematics.core.config import load_config
 from gpr_kinematics.robot import Stations, load_robot, solve_stations
-from ros_support import client_session, running, start, vec
+from ros_support import client_session, running, start, vec, wait_for_log
 
 pytestmark = pytest.mark.ros
 
@@ -99,6 +99,11 @@ def test_a_node_behind_its_queue_answers_saturated_at_once(ros_environment):
             assert len(answers) == 2 * BURST and elapsed < 60
             ok = c.forward_kinematics([0.3, 0.301, 0.3])
             assert ok.success, ok.message
+            # a ROS trial: the node's log had no word of them; now at most one line a second, with the count
+            logged = wait_for_log(node, r'\w+: saturated: a request waited \S+ s in the queue '
+                                  r'\(max_queue_time 0\.05 s\), answered success: false; (\d+) so answered since the '
+                                  'start')
+            assert 1 <= int(logged.group(1)) <= len(saturated)
         assert node.alive() and 'Traceback' not in node.output()
     finally:
         node.stop()

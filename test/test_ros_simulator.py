@@ -1092,3 +1092,65 @@ def test_a_second_server_of_the_action_is_warned_of_and_its_end_said() -> None:
             p.stop()
     assert a.output().count('other server(s)') == 1, a.output()
     assert 'other server' not in c.output(), c.output()
+
+
+def test_a_cancel_ends_the_goal_while_the_simulated_clock_is_missing_or_paused(ros_environment):
+    """A ROS trial: under use_sim_time with no /clock (or one paused mid-goal) a cancel was accepted and its result
+    never came (the motion's timer runs on the ROS clock), until the clock moved or another goal came; now it ends at
+    once, CANCELED, and the wait for simulated time is logged, as trajectory_node does."""
+    import threading
+
+    from action_msgs.msg import GoalStatus
+    from builtin_interfaces.msg import Time
+    from control_msgs.action import FollowJointTrajectory
+    from gpr_kinematics.nodes.client import GprClient
+    from gpr_kinematics.nodes.qos import action_client_options
+    from rclpy.action import ActionClient
+    from rosgraph_msgs.msg import Clock
+
+    ns = '/gpr_sim_noclock'
+    proc = start('robot_simulator_node', namespace=ns, rate=RATE, idle_rate=10.0, use_sim_time=True)
+    now, ticking, stop = {'ns': 0}, threading.Event(), threading.Event()
+    try:
+        wait_for_log(proc, 'serving ')
+        with GprClient('gpr_test_sim_noclock', namespace=ns) as c:
+            cli = ActionClient(c.node, FollowJointTrajectory, ACTION, **action_client_options(1000))
+            assert cli.wait_for_server(timeout_sec=20.0), proc.output()
+            rest = float(JOINTS.rest[JOINTS.names.index('arm1_elbow')])
+            handle = c.wait(cli.send_goal_async(_goal(['arm1_elbow'], [2.0], [[rest + 0.2]])), 20, 'goal')
+            assert handle.accepted
+            wait_for_log(proc, r'no /clock has arrived in 3 s: use_sim_time is true and the goal \(at sample 0 of '
+                               r'\d+\) waits for simulated time')
+            c.wait(handle.cancel_goal_async(), 10, 'cancel')
+            res = c.wait(handle.get_result_async(), 5, 'result of the cancel without /clock')
+            assert (res.status, res.result.error_code) == (GoalStatus.STATUS_CANCELED, 0), res.result.error_string
+            assert res.result.error_string.startswith('cancelled before its start'), res.result.error_string
+            clock = c.node.create_publisher(Clock, '/clock', 10)
+
+            def ticks() -> None:   # 10 ms steps while ticking, then a clock that stands still
+                now['ns'] = 100 * NS_PER_S
+                while not stop.is_set():
+                    if ticking.is_set():
+                        now['ns'] += 10_000_000
+                    t = now['ns']
+                    clock.publish(Clock(clock=Time(sec=t // NS_PER_S, nanosec=t % NS_PER_S)))
+                    time.sleep(0.01)
+
+            ticking.set()
+            ticker = threading.Thread(target=ticks, daemon=True)
+            ticker.start()
+            handle = c.wait(cli.send_goal_async(_goal(['arm1_elbow'], [2.0], [[rest + 0.2]])), 20, 'goal')
+            assert handle.accepted
+            c.spin_for(0.5)
+            ticking.clear()   # paused mid-goal
+            c.spin_for(0.3)
+            c.wait(handle.cancel_goal_async(), 10, 'cancel')
+            res = c.wait(handle.get_result_async(), 5, 'result of the cancel with /clock paused')
+            assert (res.status, res.result.error_code) == (GoalStatus.STATUS_CANCELED, 0), res.result.error_string
+            assert re.match(r'cancelled at t = 0\.\d+ s of 2 s; the joints hold where they are',
+                            res.result.error_string), res.result.error_string
+            stop.set()
+            ticker.join(timeout=5.0)
+    finally:
+        stop.set()
+        proc.stop()

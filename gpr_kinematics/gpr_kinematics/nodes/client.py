@@ -43,7 +43,7 @@ from gpr_interfaces.srv import (
 from ..core.messages import Service
 from ..core.rotations import quaternion_from_matrix, tilt_rotation
 from ..errors import GprError, InputError, brief
-from ..inputs.validation import MAX_COORDINATE, float_array
+from ..inputs.validation import float_array, within_turn
 from ..robot.platform_program import REQUIRED_STATION_KEYS, STATION_KEYS
 from .conversions import Vector, pose_msg
 from .qos import action_client_options, latched_qos, service_qos, stream_qos
@@ -164,9 +164,9 @@ class GprClient:
     def inverse_kinematics(self, height: float, tilt: float, azimuth: float, model: str = '') -> Any:
         """``gpr/inverse_kinematics``: platform height [m], tilt and tilt azimuth [rad] -> the response."""
         height, tilt, azimuth = _floats((height, tilt, azimuth), 'height, tilt, azimuth', 3, finite=True)
-        if not abs(tilt) < math.pi or not abs(azimuth) <= MAX_COORDINATE:   # a quaternion would fold them
-            raise InputError(f'tilt = {tilt:g} rad, azimuth = {azimuth:g} rad; allowed: |tilt| < pi (the node '
-                             f'judges its tilt limit) and |azimuth| <= {MAX_COORDINATE:g} rad')
+        if not abs(tilt) < math.pi:   # a quaternion would fold it
+            raise InputError(f'tilt = {tilt:g} rad; allowed: |tilt| < pi (the node judges its tilt limit)')
+        within_turn(azimuth, 'azimuth')   # as the station service's: 90 (degrees) read as 2.04 rad
         quat = quaternion_from_matrix(tilt_rotation(tilt, azimuth))
         req = InverseKinematics.Request(target=pose_msg((0.0, 0.0, height), quat), model=_text(model, 'model'))
         return self.call(InverseKinematics, Service.INVERSE_KINEMATICS, req)

@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, TypeAlias
 
 import numpy as np
-from builtin_interfaces.msg import Time
+from builtin_interfaces.msg import Duration, Time
 from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Transform, Vector3
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
@@ -26,10 +26,11 @@ from gpr_interfaces.msg import PlatformState, RobotState
 from ..bags.errors import BagError
 from ..core import ForwardResult
 from ..core.floats import FloatPose, Quat, Vec3, quaternion_of
-from ..core.messages import STATE_FROM_RESULT, MessageTypes
+from ..core.messages import NS_PER_S, STATE_FROM_RESULT, MessageTypes, duration_parts
 from ..core.rotations import matrix_from_quaternion, tilt_from_matrix
 from ..errors import InputError, brief
 from ..inputs.validation import QUATERNION_NORM_TOLERANCE, finite_vector, unit_quaternion
+from ..robot.goal import Goal, check_point_count
 
 #: A vector of numbers given to a message builder: a sequence or a numpy array (SI units).
 Vector: TypeAlias = Sequence[float] | np.ndarray
@@ -274,3 +275,29 @@ def make_message(msgtype: str, **fields: Any) -> Any:
     """An rclpy message of ``pkg/msg/Type`` with ``fields`` (the others at their defaults): the ``make`` factory
     of the ROS-free message builders (:func:`gpr_kinematics.robot.markers.marker_array`)."""
     return message_class(msgtype)(**fields)
+
+
+def duration_msg(t: float) -> Duration:
+    """``builtin_interfaces/Duration`` of ``t`` [s]."""
+    sec, nanosec = duration_parts(t)
+    return Duration(sec=sec, nanosec=nanosec)
+
+
+def _seconds(d: Any) -> float:
+    return float(d.sec) + float(d.nanosec) / NS_PER_S
+
+
+def goal_of_request(req: Any) -> Goal:
+    """The :class:`~gpr_kinematics.robot.goal.Goal` of a ``control_msgs/action/FollowJointTrajectory`` request (its
+    point count checked before its points are read), for :func:`~gpr_kinematics.robot.goal.plan_goal`."""
+    points = req.trajectory.points
+    check_point_count(len(points))
+    stamp = req.trajectory.header.stamp
+    return Goal(list(req.trajectory.joint_names), [_seconds(pt.time_from_start) for pt in points],
+                [pt.positions for pt in points], [pt.velocities for pt in points],
+                [pt.accelerations for pt in points], any(len(pt.effort) for pt in points),
+                bool(req.multi_dof_trajectory.joint_names or req.multi_dof_trajectory.points),
+                bool(req.component_path_tolerance or req.component_goal_tolerance),
+                [(t.name, t.position, t.velocity, t.acceleration) for t in req.path_tolerance],
+                [(t.name, t.position, t.velocity, t.acceleration) for t in req.goal_tolerance],
+                _seconds(req.goal_time_tolerance), stamp.sec * NS_PER_S + stamp.nanosec)

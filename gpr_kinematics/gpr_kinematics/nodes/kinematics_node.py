@@ -17,7 +17,8 @@ No request is dropped: the services keep every request and response (reliable, k
 with a queue of 100, a burst of 600 requests from one client got 208 answers). A request that waited longer than
 the parameter ``max_queue_time`` (default 5 s) in the node's queue is answered at once with ``success: false`` and
 a message starting ``saturated:`` (not computed), so that a node that cannot keep up tells its clients so, and
-drains its queue, instead of answering requests their clients gave up on.
+drains its queue, instead of answering requests their clients gave up on; its log says so at most every second,
+with the count so answered.
 """
 from __future__ import annotations
 
@@ -61,7 +62,11 @@ def guarded(service: str) -> Callable[..., Any]:
         @functools.wraps(fn)
         def inner(self: KinematicsNode, request: Any, response: Any) -> Any:
             age = self.request_age()
-            if age > self.max_queue_time:
+            if age > self.max_queue_time:   # logged too, at most every second: an operator saw no sign of it
+                self.saturated += 1
+                self.get_logger().warning(f'{service}: saturated: a request waited {age:.3g} s in the queue '
+                                          f'(max_queue_time {self.max_queue_time:g} s), answered success: false; '
+                                          f'{self.saturated} so answered since the start', throttle_duration_sec=1.0)
                 return _failed(response, f'saturated: the request waited {age:.3g} s in the queue of '
                                f'{self.get_name()} (allowed: max_queue_time = {self.max_queue_time:g} s); not '
                                'computed: retry later, or send fewer requests at once')
@@ -107,6 +112,7 @@ class KinematicsNode(GprNode):
         self.params = ConfigParameters(self, robot=declare_robot(self))
         p = declare_parameters(self, KINEMATICS)
         self.max_queue_time = float(p['max_queue_time'])
+        self.saturated = 0   # requests answered 'saturated:' (logged at most every second)
         self.frame_prefix = check_frame_prefix(p['frame_prefix'], (*DEFAULT_FRAMES, self.params.robot.world_frame))
         self._executor: QueueTimedExecutor | None = None
         self.robot_models = RobotModels()

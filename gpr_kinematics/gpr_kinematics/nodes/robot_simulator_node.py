@@ -10,40 +10,41 @@ samples: :class:`gpr_kinematics.safety.goal.GoalClearance`); a goal it refuses i
 on ``joint_states`` (every joint, position and velocity, stamped at the start plus ``t_k = k / rate``) with one
 feedback per sample; the joints follow the samples exactly, or with the first-order lag ``servo_time_constant``
 (checked along the path it takes, :class:`~gpr_kinematics.robot.servo.Lag`). Path tolerances are checked at every
-sample, the goal tolerance after the last point within ``goal_time_tolerance``; cancel stops at the next sample
-(``SUCCESSFUL``, the state held); a new goal that passes the checks preempts the running one (canceled,
-``INVALID_GOAL``, as joint_trajectory_controller does); a goal running when the node stops ends aborted, its client
-told, and one whose clock goes back more than a sample period ends aborted naming the jump
-(:func:`~gpr_kinematics.robot.goal.clock_set_back`). A ``header.stamp`` of 0 starts at once, a later one then, one
-in the past as joint_trajectory_controller takes it (:func:`~gpr_kinematics.robot.controller.late_start`).
+sample, the goal tolerance after the last point within ``goal_time_tolerance``; cancel stops at once (``SUCCESSFUL``,
+the state held; watched on the steady clock: a paused or missing ``/clock`` held it; a wait for it is told); a new
+goal that passes the checks preempts the running one (canceled, ``INVALID_GOAL``, as joint_trajectory_controller
+does); a goal running when the node stops ends aborted, its client told, and one whose clock goes back more than a
+sample period ends aborted naming the jump (:func:`~gpr_kinematics.robot.goal.clock_set_back`). A ``header.stamp``
+of 0 starts at once, a later one then, one in the past as joint_trajectory_controller takes it
+(:func:`~gpr_kinematics.robot.controller.late_start`).
 
-While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (its rest state before the
-first goal, :attr:`~gpr_kinematics.robot.controller.ControllerJoints.rest`; after one, where it ended, the lagging
-joints converging to its last point; reliable), and takes the joint values other publishers send on ``joint_states``
-as its state, quietly while they stream (``trajectory_node``; values beyond the limits, a tilt beyond the limit, with
-``cell_file`` a state or a line to it within ``clearance_margin``:
-:meth:`~gpr_kinematics.safety.goal.GoalClearance.move`, at most every :data:`FOREIGN_CHECK` s, are ignored with a
-warning). Parameters: ``robot_file``, ``config_file``, the geometry (read-only) and
+While no goal runs it publishes the state it holds on ``joint_states`` at ``idle_rate`` (before the first goal its
+rest, :attr:`~..robot.controller.ControllerJoints.rest`; then where one ended, lagging joints converging), and takes
+the joint values other publishers send on ``joint_states`` as its state, quietly while they stream
+(``trajectory_node``; values beyond the limits, a tilt beyond the limit, with ``cell_file`` a state or a line to it
+within ``clearance_margin``: :meth:`~..safety.goal.GoalClearance.move`, at most every :data:`FOREIGN_CHECK` s, are
+ignored with a warning). Parameters: ``robot_file``, ``config_file``, the geometry (read-only) and
 :data:`gpr_kinematics.ros.specs.SIMULATOR` (docs/ros.md).
 """
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import GoalEvent, ServerGoalHandle
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import Executor
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from ..core.messages import FOLLOW_JOINT_TRAJECTORY, NS_PER_S, Topic, duration_parts, time_parts
+from ..core.messages import FOLLOW_JOINT_TRAJECTORY, NS_PER_S, Topic, time_parts
 from ..errors import ConfigError, GprError
 from ..robot.controller import (
     GOAL_TOLERANCE_VIOLATED,
@@ -56,15 +57,17 @@ from ..robot.controller import (
     Tolerances,
     joint_state_values,
 )
-from ..robot.goal import Controller, Goal, check_point_count, clock_set_back, plan_goal
+from ..robot.goal import Controller, clock_set_back, plan_goal
 from ..robot.servo import servo, violation
 from ..ros.specs import SIMULATOR
 from ..safety.cell import load_cell
 from ..safety.goal import GoalClearance
+from .conversions import duration_msg, goal_of_request
 from .foreign_states import OtherServers, RefusalLog, outside
 from .params import ConfigParameters, declare_parameters, declare_robot
 from .qos import action_server_options, joint_states_subscription, release_request, stream_qos
-from .runtime import GprNode, deliver_results, one_line, run
+from .runtime import GprNode, deliver_results, one_line, run, tell
+from .trajectory_watch import WATCH_PERIOD, ClockWatch
 
 NODE_NAME = 'robot_simulator_node'
 #: How many of its latest states it remembers to tell its own messages heard back from another publisher's.
@@ -87,11 +90,6 @@ class _Run:
     started: float | None = None
 
 
-def _duration(t: float) -> Duration:
-    sec, nanosec = duration_parts(t)
-    return Duration(sec=sec, nanosec=nanosec)
-
-
 def _within(now: int, then: int | None, span: int) -> bool:
     """``then`` lies at most ``span`` [ns] before ``now`` on the node's clock (a clock set back since: no)."""
     return then is not None and 0 <= now - then <= span
@@ -100,10 +98,6 @@ def _within(now: int, then: int | None, span: int) -> bool:
 def _streaming(now: int, last_foreign: int | None, idle_rate: Any) -> bool:
     """Another publisher streams the robot's states: its last one at most two idle periods before ``now`` [ns]."""
     return _within(now, last_foreign, 2 * round(NS_PER_S / float(idle_rate)))
-
-
-def _seconds(d: Any) -> float:
-    return float(d.sec) + float(d.nanosec) / NS_PER_S
 
 
 class RobotSimulatorNode(GprNode):
@@ -153,6 +147,8 @@ class RobotSimulatorNode(GprNode):
         self.motion_timer = self.create_timer(self.period, self._tick)
         self.motion_timer.cancel()
         self.create_timer(1.0 / float(p['idle_rate']), self._idle)
+        self.clock_watch = ClockWatch()   # a cancel, and simulated time that does not come (on the steady clock)
+        self.create_timer(WATCH_PERIOD, self._watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.action = ActionServer(self, FollowJointTrajectory, FOLLOW_JOINT_TRAJECTORY, execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    cancel_callback=lambda _goal: CancelResponse.ACCEPT, feedback_pub_qos_profile=qos,
@@ -200,7 +196,7 @@ class RobotSimulatorNode(GprNode):
             return
         state = (self.actual if self.pending is None else self.pending).copy()
         state[taken] = values
-        wrong = self._outside(state)
+        wrong = outside(self.joints, self.cfg, state)
         if wrong:
             self.refusals.warn(f'joint_states of another publisher ignored: {wrong}')
             return
@@ -234,10 +230,6 @@ class RobotSimulatorNode(GprNode):
             return
         self.actual, self.command = state, None
         self.velocity[:] = 0.0
-
-    def _outside(self, state: Any) -> str:
-        """:func:`~gpr_kinematics.nodes.foreign_states.outside` with the node's joints and geometry."""
-        return outside(self.joints, self.cfg, state)
 
     def _idle(self) -> None:
         period = round(NS_PER_S / float(self.p['idle_rate']))
@@ -277,17 +269,7 @@ class RobotSimulatorNode(GprNode):
             if _streaming(self.get_clock().now().nanoseconds, self.last_foreign, self.p['idle_rate']):   # /tf flickered
                 raise GoalError(INVALID_GOAL, "another node streams this robot's joint_states (a program or sweep of "
                                 'trajectory_node, say); allowed: a goal once that stream has ended')
-        points = req.trajectory.points
-        check_point_count(len(points))   # before the points are read
-        stamp = req.trajectory.header.stamp
-        goal = Goal(list(req.trajectory.joint_names), [_seconds(pt.time_from_start) for pt in points],
-                    [pt.positions for pt in points], [pt.velocities for pt in points],
-                    [pt.accelerations for pt in points], any(len(pt.effort) for pt in points),
-                    bool(req.multi_dof_trajectory.joint_names or req.multi_dof_trajectory.points),
-                    bool(req.component_path_tolerance or req.component_goal_tolerance),
-                    [(t.name, t.position, t.velocity, t.acceleration) for t in req.path_tolerance],
-                    [(t.name, t.position, t.velocity, t.acceleration) for t in req.goal_tolerance],
-                    _seconds(req.goal_time_tolerance), stamp.sec * NS_PER_S + stamp.nanosec)
+        goal = goal_of_request(req)
         # lagging joints the goal leaves out go on toward their command (they froze where it found them)
         return plan_goal(goal, self.controller, self.actual, self.get_clock().now().nanoseconds, self.command)
 
@@ -322,6 +304,7 @@ class RobotSimulatorNode(GprNode):
                                f'{", ".join(motion.trajectory.joint_names)}, {motion.duration:.6g} s, '
                                f'{len(motion)} samples')
         self.motion_timer.reset()
+        self.clock_watch.reset(self.run.clock_ns, time.monotonic())
         outcome, code, text = await done
         result.error_code, result.error_string = code, text
         if outcome == 'succeeded':
@@ -357,6 +340,19 @@ class RobotSimulatorNode(GprNode):
         t = m.late + (m.time[k] if k < len(m) else m.time[-1] + (k - len(m) + 1) * self.period)
         self._end('canceled', SUCCESSFUL, f'cancelled before its start; {before}' if r.started is None else
                   f'cancelled at t = {t:.6g} s of {m.late + m.duration:.6g} s; the joints hold where they are')
+
+    def _watch(self) -> None:
+        """On the steady clock: a cancelled goal ends at once (the motion's timer runs on the ROS clock, which a
+        missing or paused ``/clock`` stops: a cancel waited for it without a word), and a goal waiting for simulated
+        time says so (:class:`~.trajectory_watch.ClockWatch`)."""
+        r = self.run
+        if r is not None and r.goal.is_cancel_requested:
+            self._cancelled(r)
+        elif r is not None and self.simulated:
+            said = self.clock_watch.check(self.get_clock().now().nanoseconds, time.monotonic(),
+                                          f'the goal (at sample {r.k} of {len(r.motion)})')
+            if said is not None:
+                tell(self.get_logger(), *said)
 
     def _tick(self) -> None:
         """Publish every sample due by now (at most :meth:`~.runtime.GprNode.catch_up`), checking the tolerances."""
@@ -424,7 +420,7 @@ class RobotSimulatorNode(GprNode):
         stamp = r.start_ns + round(t * NS_PER_S)
         fb = FollowJointTrajectory.Feedback(joint_names=list(r.motion.trajectory.joint_names))
         fb.header.stamp.sec, fb.header.stamp.nanosec = time_parts(stamp)
-        at = _duration(r.motion.late + t)   # from the goal's header.stamp, where its points' times count from
+        at = duration_msg(r.motion.late + t)   # from the goal's header.stamp, where its points' times count from
         fb.desired = JointTrajectoryPoint(positions=desired[g].tolist(), velocities=desired_v[g].tolist(),
                                           time_from_start=at)
         fb.actual = JointTrajectoryPoint(positions=self.actual[g].tolist(), velocities=self.velocity[g].tolist(),

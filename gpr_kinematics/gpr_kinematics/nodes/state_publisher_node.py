@@ -147,11 +147,20 @@ class StatePublisherNode(GprNode):
         fk = None
         try:
             fk = forward(rods, self.cfg)
-        except NoPoseError as exc:  # no tilt makes them: a pose solved without the limits would be the model's fiction
-            self.get_logger().warning(f'joint_states: {one_line(exc)}; the platform keeps its last pose',
-                                      throttle_duration_sec=5.0)
-            return
-        except LimitError as exc:   # solved again without the limits: one solve for rods within them
+        except LimitError as exc:   # NoPoseError: no tilt makes them, a pose solved without the limits is fiction
+            beyond = exc
+            if not isinstance(exc, NoPoseError) and not (self.cfg.stroke_min <= min(rods) and
+                                                         max(rods) <= self.cfg.stroke_max):
+                try:   # beyond the stroke, judged first: their differences too (2 mm beyond showed 62 deg on /tf)
+                    forward(rods, self.cfg, stroke=False)
+                except NoPoseError as none:
+                    beyond = none
+                except GprError:
+                    pass
+            if isinstance(beyond, NoPoseError):
+                self.get_logger().warning(f'joint_states: {one_line(beyond)}; the platform keeps its last pose',
+                                          throttle_duration_sec=5.0)
+                return
             self.get_logger().warning(f'joint_states: {one_line(exc)}; shown as received', throttle_duration_sec=5.0)
         except GprError:
             pass
