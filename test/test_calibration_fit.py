@@ -323,11 +323,12 @@ def test_sigmas_declared_a_third_above_the_noise_fail_the_sigmas_check():
     assert noise.passed and noise.value == pytest.approx(0.9916, abs=1e-4) and noise.limit < 0.908
     assert not over.passed and over.value == pytest.approx(noise.value / 1.69, rel=1e-6)
     assert over.limit == pytest.approx(0.9072, abs=1e-4)
+    # both kinds below their points, both named (a calibration trial: the angles' were left for a second refusal)
     assert over.detail == (
-        'The position residuals are far smaller than the standard deviations given: their reduced chi-square 0.587 '
-        'is below 0.907 (the 0.1 % point for 2091 degrees of freedom), and the fit weights the positions too little: '
-        'a sigma column in other units than the file\'s (mm or deg in a file in m and rad?), or the noise '
-        'overstated; give the measurement noise.')
+        'The position and angle residuals are far smaller than the standard deviations given: their reduced '
+        'chi-squares 0.587 and 0.588 are below 0.907 and 0.907 (the 0.1 % points for 2091 and 2088 degrees of '
+        'freedom), and the fit weights the positions and angles too little: a sigma column in other units than the '
+        'file\'s (mm or deg in a file in m and rad?), or the noise overstated; give the measurement noise.')
 
 
 def test_a_fit_whose_every_row_is_alone_has_no_cross_validation_and_fails_the_gate():

@@ -371,32 +371,36 @@ def sigma_check(h: Array | None, residual: Array, kinds: Sequence[str] | None = 
                 options: Sequence[str] = ()) -> GateCheck | None:
     """The gate's ``sigmas`` check (module docstring) of a fit with hat diagonal ``h (N, k)`` (:func:`hat_diagonal`)
     and weighted residual blocks ``residual (N, k)``: of the ``kinds`` whose sigmas are given (all by default), the
-    one whose reduced chi-square is furthest below its ``1 - CHI2_QUANTILE`` point; ``None`` when none has a degree
-    of freedom or there is no hat diagonal. The hint names ``--sigma-position``/``--sigma-angle`` for the
-    ``options`` kinds (their sigmas the option's, not a column's)."""
+    one whose reduced chi-square is furthest below its ``1 - CHI2_QUANTILE`` point, every one below named (one named
+    alone was mended, the other then refused); ``None`` when none has a degree of freedom or no hat diagonal. The
+    hint names ``--sigma-position``/``--sigma-angle`` for the ``options`` kinds (their sigmas the option's)."""
     n, k = residual.shape
     if h is None:
         return None
-    found: tuple[float, str, float, float] | None = None
+    judged: list[tuple[float, str, float, float]] = []
     for kind, part in KINDS[k]:
         dof = float(np.sum(1.0 - h[:, part]))
         if dof < 1.0 or (kinds is not None and kind not in kinds):
             continue
         red = float(np.sum(residual[:, part] ** 2)) / dof
-        low = float(chi2_ppf(1.0 - CHI2_QUANTILE, dof) / dof)
-        if found is None or red / low < found[0] / found[3]:
-            found = (red, kind, dof, low)
-    if found is None:
+        judged.append((red, kind, dof, float(chi2_ppf(1.0 - CHI2_QUANTILE, dof) / dof)))
+    if not judged:
         return None
-    red, kind, dof, low = found
-    unit = '--mm' if kind == 'position' else '--deg'
-    cause = (f'--sigma-{kind} in other units than meant (with or without {unit}?)' if kind in options else
-             'a sigma column in other units than the file\'s (mm or deg in a file in m and rad?)')
+    red, kind, dof, low = min(judged, key=lambda j: j[0] / j[3])
+    below = [j for j in judged if j[0] < j[3]] or [(red, kind, dof, low)]
+    unit = {'position': '--mm', 'angle': '--deg'}
+    column = 'a sigma column in other units than the file\'s (mm or deg in a file in m and rad?)'
+    causes = dict.fromkeys(f'--sigma-{b} in other units than meant (with or without {unit[b]}?)' if b in options
+                           else column for _, b, _, _ in below)
+    one = len(below) == 1
     return GateCheck('sigmas', red >= low, red, low,
-                     f'The {kind} residuals are far smaller than the standard deviations given: their reduced '
-                     f'chi-square {red:.3g} is below {low:.3g} (the {100 * (1 - CHI2_QUANTILE):g} % point for '
-                     f'{dof:.4g} degrees of freedom), and the fit weights the {kind}s too little: {cause}, or the '
-                     'noise overstated; give the measurement noise.', at_least=True)
+                     f'The {" and ".join(b for _, b, _, _ in below)} residuals are far smaller than the standard '
+                     f'deviations given: their reduced chi-square{"" if one else "s"} '
+                     f'{" and ".join(f"{r:.3g}" for r, _, _, _ in below)} {"is" if one else "are"} below '
+                     f'{" and ".join(f"{lo:.3g}" for _, _, _, lo in below)} (the {100 * (1 - CHI2_QUANTILE):g} % '
+                     f'point{"" if one else "s"} for {" and ".join(f"{d:.4g}" for _, _, d, _ in below)} degrees of '
+                     f'freedom), and the fit weights the {" and ".join(b + "s" for _, b, _, _ in below)} too little: '
+                     f'{" or ".join(causes)}, or the noise overstated; give the measurement noise.', at_least=True)
 
 
 def worst_rows(residual: Array, names: Sequence[str], count: int = 3) -> str:
