@@ -81,6 +81,30 @@ def test_metres_in_a_station_file_in_millimetres_are_hinted(capsys, tmp_path):
     assert f"; the station lies {far:.4g} mm from the world's origin: metres given as millimetres?" in err, err
 
 
+@pytest.mark.parametrize(('old', 'new', 'waypoint', 'far'), [
+    ('position: [1450, 500, 720], tilt: 1.5, azimuth: 120, heading: 0, entry: 330',
+     'position: [1.45, 0.5, 0.72], tilt: 1.5, azimuth: 120, heading: 0, entry: 330', 'place pm1, entry',
+     (1.45 ** 2 + 0.5 ** 2 + 0.72 ** 2) ** 0.5),
+    ('position: [1450, 500, 720], tilt: 1.5, azimuth: 120, heading: 0, entry: 330',
+     'position: [1.45, 0.5, 0.72], tilt: 1.5, azimuth: 120, heading: 0', 'place pm1, approach',
+     (1.45 ** 2 + 0.5 ** 2 + 0.72 ** 2) ** 0.5),
+    ('position: [750, -100, 400], heading: -90}', 'position: [0.75, -0.1, 0.4], heading: -90, approach_height: 12}',
+     'pick load_port_1, approach', (0.75 ** 2 + 0.1 ** 2 + 0.4 ** 2) ** 0.5)], ids=('entry', 'approach', 'pick'))
+def test_metres_hinted_by_the_station_not_by_its_first_refused_waypoint(capsys, tmp_path, old, new, waypoint, far):
+    """The hint of metres given as millimetres was judged at the first refused waypoint: pm1 1.694 mm from the
+    origin, its entry 330 mm back refused without it; without the entry, its approach 8 mm above named as 8.889 mm
+    from the origin; load_port_1 0.856 mm from it, its approach 12 mm below, no hint. Now the station's own."""
+    text = config_path('programs/example_cell_program.yaml').read_text()
+    assert old in text
+    program = tmp_path / 'metres.yaml'
+    program.write_text(text.replace(old, new).replace('../robots/', f'{config_path("robots")}/')
+                       .replace('../cells/', f'{config_path("cells")}/'))
+    status, out, err = run(capsys, 'program', 'check', str(program), '--no-progress')
+    assert (status, out) == (2, ''), err
+    assert 'steps[' in err and f'({waypoint}): ' in err, err
+    assert f"; the station lies {far:.4g} mm from the world's origin: metres given as millimetres?" in err, err
+
+
 @pytest.mark.slow
 def test_a_pair_below_the_margin_at_its_least_in_another_step_names_that_step(capsys, tmp_path):
     """pm1 25 mm to the side: arm2's wafer glides along pm1's front from the place into the pick; the table's row

@@ -40,7 +40,7 @@ from ..core.heights import solvable_heights
 from ..core.inverse import tilt_target_slack
 from ..core.rotations import rotate_z, rotation_angle, tilt_from_normal, tilt_rotation, wrap_angle
 from ..errors import ConvergenceError, InputError, LimitError, apart, brief
-from ..inputs.validation import TURN, TURN_SLACK, switch
+from ..inputs.validation import TURN, TURN_SLACK, bounded, switch
 from .arm_chain import LIMIT_SLACK
 from .description import BRANCHES, Arm, ArmJoint, RobotDescription
 from .fields import unit_hint
@@ -271,7 +271,7 @@ def held_refusal(joint: ArmJoint, value: float, label: str, deg: bool = False) -
 
 def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None = None,
                    branch: str | Sequence[str] | None = None, redundancy_value: ArrayLike | None = None,
-                   check: bool = True) -> StationSolution:
+                   check: bool = True, unit_at: ArrayLike | None = None) -> StationSolution:
     """Rods and arm joints that put the wafer of ``arm`` at ``stations`` (module docstring), vectorised.
 
     Args:
@@ -280,9 +280,11 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         redundancy_value: for a 4-joint arm under ``fixed_joint``, the held joint's value [rad] (one or per station).
         check: raise on the first station that violates a limit (else return the solution with ``feasible``
             marking the stations within every limit).
+        unit_at: the positions ``(N, 3)`` [m, world] a refusal's hint of a unit slip is judged at (default the
+            stations'; a program's waypoints are judged at their station: an approach 8 mm above it is not it).
 
     Raises:
-        InputError: malformed stations or branch; a missing heading for a 3- or 4-joint arm; ``check`` no bool.
+        InputError: malformed stations, branch or unit_at; no heading for a 3- or 4-joint arm; ``check`` no bool.
         LimitError: tilt, stroke, reach, joint limits, 2-joint heading (module docstring).
     """
     if not isinstance(stations, Stations):
@@ -292,8 +294,8 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         raise InputError(f'robot = {brief(robot)}; allowed: a RobotDescription (load_robot)')
     check = switch(check, 'check')   # 'no' checked, '' and 0 did not
     a = robot.arm(arm)
-    n = len(stations)
-    cfg = robot.config
+    n, cfg = len(stations), robot.config
+    at = stations.position if unit_at is None else bounded(unit_at, 'unit_at [m]', (n, 3))
     names, sign = _signs(a, branch, n)
     if len(a.joints) > 2 and (stations.heading_free.item() if n == 1 else stations.heading_free.any()):
         i = int(np.argmax(stations.heading_free))
@@ -351,7 +353,7 @@ def solve_stations(robot: RobotDescription, stations: Stations, arm: str | None 
         angle_error=_angle_to(stations, fk.wafer.rotation), feasible=~bad)
     if check and bad.any():
         i = int(np.argmax(bad))
-        hint = unit_hint(float(np.linalg.norm(p_b[i])), float(np.linalg.norm(stations.position[i])))
+        hint = unit_hint(float(np.linalg.norm(base.inverse_apply(at)[i])), float(np.linalg.norm(at[i])))
         raise LimitError(f'{stations.label(i)}: {_fault_message(robot, a, result, sol, targets, i)}{hint}'
                          f'{_more(bad)}')
     return result

@@ -264,7 +264,8 @@ def plan_program(robot: RobotDescription, program: RobotProgram, rate: float | N
     if not feasible.all():
         i = int(np.argmax(~feasible))
         try:
-            solve_stations(robot, way.stations.take([i]), way.arm[i], branch=way.branch[i])
+            solve_stations(robot, way.stations.take([i]), way.arm[i], branch=way.branch[i],
+                           unit_at=_station_at(program, way, i))   # the unit's hint judged at the station itself
         except LimitError as exc:
             more = int(np.count_nonzero(~feasible)) - 1
             tail = f' (and {more} more waypoint{"s" if more > 1 else ""})' if more else ''
@@ -347,6 +348,15 @@ def check_wafers(program: RobotProgram, way: Waypoints) -> None:
                                   'station (pick its wafer first)')
             carrying.discard(arm)
             present.add(station)
+
+
+def _station_at(program: RobotProgram, way: Waypoints, i: int) -> Array:
+    """The position ``(1, 3)`` [m, world] of the station waypoint ``i`` is derived from (its approach, entry and
+    retract lie beside it: pm1 typed in metres in a file in mm, 1.7 mm from the origin, had its entry 330 mm away
+    refused without the hint of metres given as millimetres, and its approach hinted as 8.9 mm from it)."""
+    table = program.stations
+    k = table.index()[str(program.steps[int(way.step[i])].station)]
+    return table.stations.position[k:k + 1]
 
 
 def _label(program: RobotProgram, way: Waypoints, i: int) -> str:
