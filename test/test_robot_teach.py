@@ -232,6 +232,53 @@ def test_reteach_keeps_the_held_joint_of_a_fixed_joint_arm():
     np.testing.assert_allclose(rt.solution.joints, old, atol=1e-3)   # the naive error is micrometres
 
 
+def test_reteach_under_nearest_says_the_posture_changed(tmp_path, capsys):
+    """arm2 under ``nearest`` takes the posture nearest its reference, not the old one: its wrist was re-taught
+    0.0995 rad away (the hand 0.0817 rad) for an error of 17.7 um, and neither the text nor --json said so. The
+    joints moved more than MOVED_JOINT are named with how far (new minus old), in the record and a warning line; under
+    fixed_joint (the wrist held) nothing moves that far and nothing is named."""
+    import json
+
+    import yaml
+    from gpr_kinematics.cli.main import main
+    from gpr_kinematics.core import inverse
+    from gpr_kinematics.robot.teach import MOVED_JOINT
+    q = inverse(0.3, 0.03, 0.5).q
+    old = np.array([[0.4, -1.2, 0.3, 0.5], [-0.3, 1.1, -0.2, -0.4]])
+    data = robot_data()
+    next(a for a in data['arms'] if a['name'] == 'arm2')['redundancy'] = {'rule': 'nearest', 'joint': 'arm2_wrist'}
+    rt = reteach(make_robot(data), [q, q], old, 'arm2')
+    change = rt.solution.joints - old
+    np.testing.assert_array_equal(rt.joint_change, change)
+    names = ('arm2_shoulder', 'arm2_elbow', 'arm2_wrist', 'arm2_hand')
+    records = rt.records()
+    for i, rec in enumerate(records):
+        assert rec.moved == {n: float(change[i, k]) for k, n in enumerate(names) if abs(change[i, k]) > MOVED_JOINT}
+    assert set(records[0].moved) == {'arm2_elbow', 'arm2_wrist', 'arm2_hand'}   # the shoulder 0.0047 rad: kept
+    assert records[0].moved['arm2_wrist'] == pytest.approx(-0.0995, abs=1e-4)
+    assert records[0].moved['arm2_hand'] == pytest.approx(0.0817, abs=1e-4)
+    assert records[0].avoided_error < 2e-5   # micrometres to correct
+    held = reteach(ROBOT, [q, q], old, 'arm2')   # fixed_joint: the old posture kept
+    assert [r.moved for r in held.records()] == [{}, {}] and np.max(np.abs(held.joint_change)) < 1e-4
+    # the CLI: a warning line naming the joints and how far, and the JSON field
+    robot = tmp_path / 'nearest.yaml'
+    robot.write_text(yaml.safe_dump(data | {'gpr': {'config': None, 'model': 'radial'}}))
+    typed = ['--rods', *(repr(float(v)) for v in q), '--joints', *(repr(float(v)) for v in old[0]), '--naive']
+    argv = ['robot', 'teach', '--robot', str(robot), '--arm', 'arm2', *typed]
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and lines[1] == (
+        f'0: warning: the posture changed: arm2_elbow moved {change[0, 1]:+.3f} rad, arm2_wrist moved '
+        f'{change[0, 2]:+.3f} rad, arm2_hand moved {change[0, 3]:+.3f} rad from the old joints (more than 0.01 rad); '
+        'arm arm2 takes the posture nearest its reference (redundancy rule nearest), not the old one: under the rule '
+        "fixed_joint re-teach keeps its held joint's old value"), lines
+    assert main([*argv, '--json']) == 0
+    row = json.loads(capsys.readouterr().out)['stations'][0]
+    assert row['moved'] == pytest.approx(records[0].moved, rel=1e-12)
+    assert main(['robot', 'teach', '--arm', 'arm2', *typed, '--json']) == 0   # the example's arm2, fixed_joint
+    assert json.loads(capsys.readouterr().out)['stations'][0]['moved'] == {}
+
+
 def test_reteach_refuses_a_held_joint_beyond_its_limits_naming_the_row(tmp_path, capsys):
     """Old joints may lie beyond their limits, but arm2's held wrist (fixed_joint) keeps its old value in the new
     posture: 2.6 rad of [-2.5, 2.5] was refused as 'redundancy value = 2.6 rad (station s1)', a value the user never

@@ -131,7 +131,7 @@ def _cmd_ik(args: argparse.Namespace) -> int:
 
 
 def _cmd_teach(args: argparse.Namespace) -> int:
-    from ..robot.teach import RetaughtRecord, TeachReport, read_joint_table, reteach, teach
+    from ..robot.teach import MOVED_JOINT, RetaughtRecord, TeachReport, read_joint_table, reteach, teach
     robot = robot_of(args)
     if args.table is not None:  # an empty name is refused, not ignored
         from ..errors import InputError
@@ -167,11 +167,23 @@ def _cmd_teach(args: argparse.Namespace) -> int:
             print(f'{row.name}: meant {vec(row.intended.position)} m; new rods {vec(row.rods)} m, joints '
                   + ', '.join(f'{k} = {v:.9f}' for k, v in row.arm.items())
                   + f' rad; the old joints missed by {row.avoided_error * 1e6:.3f} um')
+            if row.moved:   # another posture, not a correction (nearest: hi_j3 0.89 rad away for 3.6 um, unsaid)
+                print(f'{row.name}: warning: the posture changed: ' + ', '.join(f'{k} moved {v:+.3f} rad' for k, v in
+                                                                               row.moved.items())
+                      + f' from the old joints (more than {MOVED_JOINT:g} rad){_why_moved(robot.arm(args.arm))}')
         else:
             st = row.station
             print(f'{row.name}: station {vec(st.position)} m, tilt {st.tilt:.9g}, azimuth {st.azimuth:.9g}, heading '
                   f'{st.heading:.9g} rad; the naive model would record it {row.naive_error * 1e6:.3f} um away')
     return 0
+
+
+def _why_moved(arm: Arm) -> str:
+    """Why re-teach moved a joint far, for the warning: a 4-joint arm under ``nearest`` keeps no old posture."""
+    if arm.redundancy is None or arm.redundancy.rule != 'nearest':
+        return ''
+    return (f'; arm {arm.name} takes the posture nearest its reference (redundancy rule nearest), not the old one: '
+            'under the rule fixed_joint re-teach keeps its held joint\'s old value')
 
 
 def register(sub: Subparsers) -> None:

@@ -50,10 +50,18 @@ class TaughtRecord:
     naive_error_vector: Array
 
 
+#: How far a re-taught joint may move from its old value [rad] before re-teach says the posture changed: correcting
+#: the naive model's micrometres moves a joint by far less; a 4-joint arm under ``nearest`` takes the posture nearest
+#: its reference, not the old one (hi_j3 moved 0.89 rad and hi_j4 0.66 rad for a 3.6 um error, without a word).
+MOVED_JOINT = 0.01
+
+
 @dataclass(frozen=True)
 class RetaughtRecord:
     """One re-taught station: its ``name``, the station the old tool ``intended``, the new ``rods`` [m] and arm
-    joints by name [rad], and the wafer error the old joints made (``avoided_error`` [m] and its vector)."""
+    joints by name [rad], the wafer error the old joints made (``avoided_error`` [m] and its vector), and the joints
+    moved more than :data:`MOVED_JOINT` from their old values (``moved``: new minus old [rad] by name; empty where
+    the old posture is kept)."""
 
     name: str
     intended: StationRecord
@@ -61,6 +69,7 @@ class RetaughtRecord:
     arm: dict[str, float]
     avoided_error: float
     avoided_error_vector: Array
+    moved: dict[str, float]
 
 
 @dataclass(frozen=True)
@@ -126,14 +135,21 @@ class Retaught:
     def avoided_error_norm(self) -> Array:
         return np.asarray(np.linalg.norm(self.avoided_error, axis=1), dtype=np.float64)
 
+    @property
+    def joint_change(self) -> Array:
+        """The new arm joints minus the old ``(N, n)`` [rad]."""
+        return np.asarray(self.solution.joints - self.old.joints, dtype=np.float64)
+
     def records(self) -> tuple[RetaughtRecord, ...]:
         """Every station as a :class:`RetaughtRecord` (each error array computed once, each record its own copy)."""
         sol = self.solution
         names = sol.forward.robot.arm(sol.arm).joint_names
-        avoided, norm = self.avoided_error, self.avoided_error_norm
+        avoided, norm, change = self.avoided_error, self.avoided_error_norm, self.joint_change
         return tuple(RetaughtRecord(name, self.intended.record(i), np.array(sol.rods[i]),
                                     dict(zip(names, sol.joints[i].tolist(), strict=True)), float(norm[i]),
-                                    np.array(avoided[i])) for i, name in enumerate(self.intended.names))
+                                    np.array(avoided[i]), {n: float(d) for n, d in zip(names, change[i], strict=True)
+                                                           if abs(d) > MOVED_JOINT})
+                     for i, name in enumerate(self.intended.names))
 
 
 #: How far beyond its limits an old joint of :func:`reteach` may lie [rad]: a turn. The old tool's joints need not
