@@ -225,4 +225,5 @@ def test_export_shows_its_checks_progress_unless_no_progress(capsys, tmp_path, m
                          '--margin', '0.003', '--no-progress')
     assert status == 0 and json.loads(out)['checked'] == {
         'safe': True, 'cell': None, 'margin': 0.003, 'min_clearance': check['min_clearance'],
-        'max_slip_ratio': check['max_slip_ratio']}
+        'max_slip_ratio': check['max_slip_ratio'], 'wafer_carried': True}   # said as check says it (its JSON too)
+    assert check['wafer_carried'] is True

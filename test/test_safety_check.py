@@ -804,7 +804,7 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     from gpr_kinematics.safety.clearance import ClearanceReport, PairClearance
     from gpr_kinematics.safety.plot import check_figure
     report = SafetyReport(True, 0.08, 0.002, 5e-5, ({'bodies': ['a', 'b'], 'distance': 0.08, 'time': 1.5},), (), 0.0,
-                          0.0, 0.0, '', True, (), None, 10, 4, 'radial', True)
+                          0.0, math.nan, '', True, False, (), None, 10, 4, 'radial', True)   # no wafer carried
     clear = ClearanceReport((PairClearance(('a', 'b'), 0.08, 1.5),), 0.08, 0.002, 5e-5, 10, 4,
                             (np.array([0.0, 1.0, 2.0]), np.array([0.09, 0.08])))
     fig = check_figure(clear, (np.array([0.0, 2.0]), np.zeros(2)), report)
@@ -833,6 +833,33 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     assert fig._suptitle.get_text().endswith('(a first-order bound: polar; limit 1)')
     assert fig.axes[0].patches[0].get_label().startswith('first-order clearance')
     plt.close(fig)
+
+
+def test_a_program_carrying_no_wafer_says_no_slip_was_checked(tmp_path, capsys):
+    """Moves alone carry no wafer: gpr program check printed 'max slip ratio 0.000 (a bound over the motion; 0.000
+    evaluated at 0.000 s, steps[0] (move a, move))', an instant and a step of no slip. Now the line says 'no wafer
+    carried: no slip checked', and the JSON keeps its keys: wafer_carried false, the ratios 0 (nothing slips), no
+    instant ("nan") and no step (''); a program carrying one names its instant and step as before."""
+    from gpr_kinematics.cli.main import main
+    from gpr_kinematics.safety.check import check_program
+    program = tmp_path / 'moves.yaml'
+    program.write_text(
+        f'format: gpr_robot_program\nversion: 1\nrobot: {config_path("robots/example_robot.yaml")}\n'
+        'units: {length: mm, angle: deg}\ndefaults: {arm: arm1}\nstations:\n'
+        '  - {name: a, position: [750, 850, 260], heading: 90}\n  - {name: b, position: [750, 850, 300], heading: 90}\n'
+        'steps:\n  - {move: a}\n  - {move: b}\n  - {move: a}\n')
+    assert main(['program', 'check', str(program), '--no-progress']) == 0
+    out = capsys.readouterr().out
+    assert re.search(r'^  clearance against itself \(no cell\): minimum [\d.]+ mm \(margin 2 mm, certified between '
+                     r'samples; \d+ distance calls\); no wafer carried: no slip checked$', out, re.M), out
+    assert 'slip ratio' not in out and 'evaluated at' not in out, out
+    assert main(['program', 'check', str(program), '--no-progress', '--json']) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert (d['wafer_carried'], d['max_slip_ratio'], d['max_slip_evaluated'], d['max_slip_at'], d['slip_label'],
+            d['slip_certified']) == (False, 0.0, 0.0, 'nan', '', True)
+    assert [m['max_slip_ratio'] for m in d['moves']] == [0.0, 0.0, 0.0]
+    carried = check_program(PLAN, None, with_clearance=False)[0]   # the cell program carries its wafer
+    assert carried.wafer_carried and carried.max_slip_at > 0.0 and carried.slip_label.startswith('steps[')
 
 
 def test_a_program_of_one_instant_is_checked_at_it():

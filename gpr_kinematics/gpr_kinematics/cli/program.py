@@ -86,10 +86,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _print_safety(r: Any, plan: Any) -> None:
     where = f'in cell {r.cell}' if r.cell else 'against itself (no cell)'
+    slip = (f'max slip ratio {r.max_slip_ratio:.3f} ({r.bound} over the motion; {r.max_slip_evaluated:.3f} evaluated '
+            f'at {r.max_slip_at:.3f} s, {r.slip_label})') if r.wafer_carried else 'no wafer carried: no slip checked'
     print(f'  clearance {where}: minimum {r.min_clearance * 1e3:.3f} mm (margin {r.margin * 1e3:g} mm, '
-          f'{r.between_samples}; {r.evaluations} distance calls); max slip ratio {r.max_slip_ratio:.3f} '
-          f'({r.bound} over the motion; {r.max_slip_evaluated:.3f} evaluated at {r.max_slip_at:.3f} s, '
-          f'{r.slip_label})')
+          f'{r.between_samples}; {r.evaluations} distance calls); {slip}')
     if not r.slip_certified:
         from ..safety.slip_bound import SLIP_TOLERANCE
         print(f'  the slip bound was not refined to within {SLIP_TOLERANCE:g} of the evaluated ratios (too many '
@@ -243,15 +243,17 @@ def _checked(report: SafetyReport | None) -> dict[str, JsonValue]:
         return {}
     return {'checked': {'safe': report.safe, 'cell': report.cell, 'margin': report.margin,
                         'min_clearance': json_number(report.min_clearance),
-                        'max_slip_ratio': json_number(report.max_slip_ratio)}}
+                        'max_slip_ratio': json_number(report.max_slip_ratio), 'wafer_carried': report.wafer_carried}}
 
 
 def _print_checked(report: SafetyReport | None) -> None:
     """The text of :func:`_checked`: ``checked safe in cell ...: minimum clearance ... (margin ...), ...``."""
     if report is not None:
         where = f'in cell {report.cell}' if report.cell else 'against itself (no cell)'
+        slip = (f'max slip ratio {report.max_slip_ratio:.3f}' if report.wafer_carried else
+                'no wafer carried: no slip checked')
         print(f'  checked safe {where}: minimum clearance {report.min_clearance * 1e3:.3f} mm (margin '
-              f'{report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f}')
+              f'{report.margin * 1e3:g} mm), {slip}')
 
 
 def _tables_of_a_safe_program(args: argparse.Namespace, plan: Any, margin: float, line: ProgressLine

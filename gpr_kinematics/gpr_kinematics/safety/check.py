@@ -87,12 +87,12 @@ class SafetyReport:
     Attributes:
         min_clearance: the smallest certified distance of any pair [m]; pairs: every pair, closest first
             (``bodies``, ``distance`` [m], ``time`` [s]); collisions: the pairs below the margin, first first.
-        max_slip_ratio: an upper bound of the slip ratio of a carried wafer over the whole motion (0: none carried;
-            :mod:`~gpr_kinematics.safety.slip_bound`); max_slip_evaluated: the largest ratio evaluated, at
-            max_slip_at [s] in the waypoint slip_label; slip_certified: the bound is within
-            :data:`~gpr_kinematics.safety.slip_bound.SLIP_TOLERANCE` of the evaluated ratios on every move, or of its
-            floor (else its refinement ran out of instants and the bound is looser, still a bound); moves: the bound
-            per waypoint.
+        max_slip_ratio: an upper bound of the slip ratio of a carried wafer over the whole motion (0: none carried,
+            wafer_carried false, max_slip_at NaN and slip_label ''; :mod:`~gpr_kinematics.safety.slip_bound`);
+            max_slip_evaluated: the largest ratio evaluated, at max_slip_at [s] in the waypoint slip_label;
+            slip_certified: the bound is within :data:`~gpr_kinematics.safety.slip_bound.SLIP_TOLERANCE` of the
+            evaluated ratios on every move, or of its floor (else its refinement ran out of instants and the bound is
+            looser, still a bound); moves: the bound per waypoint.
         cell: the cell file (None: the robot against itself); evaluations: distance calls; instants: poses computed.
         model: the GPR's virtual-joint model; proven: the bounds between samples (clearance and slip) are proofs,
             as for ``radial`` (:data:`~gpr_kinematics.safety.motion.PROVEN_MODELS`); else the virtual joints' motion
@@ -110,6 +110,7 @@ class SafetyReport:
     max_slip_at: float
     slip_label: str
     slip_certified: bool
+    wafer_carried: bool
     moves: tuple[MoveSafety, ...]
     cell: str | None
     evaluations: int
@@ -346,8 +347,10 @@ def check_program(plan: ProgramPlan, cell: Cell | None, margin: float = MARGIN, 
     collisions = tuple(sorted((_collision(plan, p) for p in report.below_margin), key=lambda c: c.time))
     safe = not collisions and most < 1.0 and not budget.beyond
     pairs_out = tuple({'bodies': list(p.bodies), 'distance': p.distance, 'time': p.time} for p in report.pairs)
+    carried = any(wafers.carried.values())   # none: no instant or step to name (0.000 s, steps[0] were named)
+    at, label = (float(every[k]), label_at(plan, float(every[k]))) if carried else (math.nan, '')
     return (SafetyReport(safe, report.min_clearance, margin, tolerance, pairs_out, collisions, most, float(seen[k]),
-                         float(every[k]), label_at(plan, float(every[k])), bound.closed, moves,
+                         at, label, bound.closed, carried, moves,
                          None if cell is None else cell.source, report.evaluations, report.instants,
                          robot.config.model, robot.config.model in PROVEN_MODELS, budget),
             report, (times, ratio))
