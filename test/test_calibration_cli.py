@@ -962,6 +962,40 @@ def test_a_calibrated_machine_beyond_its_imperfection_budget_is_warned(capsys, t
         'imperfection_budget of 0.05 mm'), (warned, err)
 
 
+def test_measured_rows_the_calibrated_machine_refuses_are_warned(capsys, tmp_path):
+    """A trial's machine of large zero offsets, measured up to 2 deg of tilt: calibrate took every row (within its 5 %
+    margin) and wrote a geometry that tilts 5 of the 40 rows 2.0003-2.0145 deg, beyond its tilt_limit of 2 deg, so
+    `gpr fk --config` of the written file refused them. Here the shipped file's rows, which tilt the nominal machine
+    0.0331 rad and the calibrated one 0.0327-0.0335 rad, under a tilt_limit of 0.0335 rad: the warning names the 7
+    rows the written geometry's forward kinematics refuses, by their lines, how far, and what to do; the written
+    tilt_limit is not changed."""
+    import yaml
+    from gpr_kinematics.core import forward_batch
+
+    status, out, err = run(capsys, 'calibrate', SHIPPED, '--output', str(tmp_path / 'a.yaml'), '--json')
+    assert status == 0 and not [w for w in json.loads(out)['warnings'] if 'tilt_limit' in w], err
+    geometry = tmp_path / 'steep.yaml'
+    geometry.write_text(yaml.safe_dump({**load_config().to_dict(), 'tilt_limit': 0.0335}))
+    status, out, err = run(capsys, 'calibrate', SHIPPED, '--config', str(geometry), '--output',
+                           str(tmp_path / 'b.yaml'), '--json')
+    warned = [w for w in json.loads(out)['warnings'] if 'tilt_limit' in w]
+    written = load_config(tmp_path / 'b.yaml')
+    meas = read_measurements(SHIPPED)
+    tilt = forward_batch(meas.q, written, check_limits=False).tilt
+    beyond = np.flatnonzero(tilt > 0.0335)
+    lines = ', '.join(f'line {meas.lines[i]}' for i in beyond[:5])    # lines 11, 13, 21, 23, 30
+    assert written.tilt_limit == 0.0335 and beyond.size == 7 and 0.03353 < tilt.max() < 0.03354, (beyond, tilt.max())
+    assert status == 0 and warned == [
+        'the calibrated machine tilts its platform beyond its tilt_limit of 0.0335 rad (1.91941 deg) at 7 of the 40 '
+        f'measured rows ({SHIPPED}: {lines} and 2 more; up to 0.0335369113 rad (1.92152 deg)), which calibrate took '
+        '(it takes rows up to 5 % beyond the tilt limit of the given geometry): forward kinematics with the written '
+        'file (gpr fk --config) refuses them (beyond the tilt limit); raise tilt_limit in the written file to at '
+        'least 0.033537 rad if this machine is right and tilts so far, or measure within the limit'], (warned, err)
+    status, text, err = run(capsys, 'calibrate', SHIPPED, '--config', str(geometry), '--output',
+                            str(tmp_path / 'c.yaml'))
+    assert status == 0 and f'warning: {warned[0]}' in text, text
+
+
 @pytest.mark.parametrize('option', [['--sigma-position', '0.1'], ['--sigma-angle', '0.002']])
 def test_a_sigma_option_for_a_file_with_that_column_is_refused(tmp_path, capsys, option):
     """--sigma-position 0.1 with a file of sigma columns exited 0 with the same fit (the column wins per row): the

@@ -12,6 +12,7 @@ samples of a Monte Carlo budget are one call. A joint's play (a displacement ``d
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ from numpy.typing import NDArray
 
 from ..core import forward_batch
 from ..core.config import GprConfig
+from ..core.forward import TILT_LIMIT_SLACK, tilt_words
 from ..core.geometry_covariance import BASE_NAMES, KEY, GeometryCovariance, RegisteredBase, parse_covariance
 from ..core.machine import MachineGeometry, config_with_parameters, parameter_vector
 from ..core.naive import centres_tilt
@@ -248,6 +250,37 @@ def beyond_budget(config: GprConfig, q: Array) -> tuple[str, ...]:
             f'its imperfection_budget of {1e3 * config.imperfection_budget:.4g} mm: its recordings fail gpr verify\'s '
             'state.imperfection_budget and forward reports within_budget: false there; raise imperfection_budget in '
             'the written file if this machine is right',)
+
+
+#: The measured rows a warning names before ``and N more``.
+ROWS_SHOWN = 5
+
+
+def refused_rows(config: GprConfig, meas: Measurements) -> tuple[str, ...]:
+    """A warning where the forward kinematics of the calibrated machine ``config`` refuses measured rows: the rods
+    ``meas.q`` tilt it beyond its ``tilt_limit`` (:func:`check_limits` let them be up to :data:`TILT_MARGIN` beyond
+    the limit, and a machine of larger zero offsets tilts more than its nominal one), or its closure finds no pose
+    there. ``gpr fk --config`` of the written file then exits 2 at configurations the machine was measured at. The
+    stroke is the one :func:`check_limits` held the rows to (a calibration does not change it). The rows are named by
+    their file lines (the first :data:`ROWS_SHOWN`, then how many more), with what to do; ``tilt_limit`` is not
+    changed here: it is the machine's limit, not the fit's."""
+    tilt = np.asarray(forward_batch(meas.q, config, check_limits=False).tilt, dtype=float)
+    bad = np.flatnonzero(~(tilt <= config.tilt_limit + TILT_LIMIT_SLACK))    # NaN too: no pose
+    if not bad.size:
+        return ()
+    names = [meas.row_names[int(i)] for i in bad[:ROWS_SHOWN]]
+    more = f' and {bad.size - ROWS_SHOWN} more' if bad.size > ROWS_SHOWN else ''
+    finite = tilt[bad][np.isfinite(tilt[bad])]
+    worst = float(np.max(finite, initial=config.tilt_limit))
+    shown, limit = tilt_words(worst, config.tilt_limit)
+    shown = f'up to {shown}' if finite.size else 'no pose found'
+    return (f'the calibrated machine tilts its platform beyond its tilt_limit of {limit} at {bad.size} of the '
+            f'{len(meas)} measured rows ({meas.source}: {", ".join(names)}{more}; {shown}), '
+            f'which calibrate took (it takes rows up to {100 * (TILT_MARGIN - 1):.0f} % beyond the tilt limit of the '
+            'given geometry): forward kinematics with the written file (gpr fk --config) refuses them (beyond the '
+            f'tilt limit); raise tilt_limit in the written file to at least {math.ceil(worst * 1e6) / 1e6:g} rad if '
+            'this machine is right and tilts so far, or '
+            'measure within the limit',)
 
 
 def fitted_covariance(model: PoseModel, res: CalibrationResult, frame: str = '') -> GeometryCovariance | None:

@@ -69,6 +69,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         beyond_budget,
         check_limits,
         fitted_covariance,
+        refused_rows,
         write_calibrated_config,
     )
     from ..calibration.frames import FramedModel, measuring_model
@@ -105,7 +106,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         calibrated = core.config_for(model.inner_theta(res.estimate[None])[0])
     else:
         calibrated = core.config_for(res.estimate)
-    res = replace(res, warnings=res.warnings + beyond_budget(calibrated, meas.q))
+    res = replace(res, warnings=res.warnings + beyond_budget(calibrated, meas.q)
+                  + refused_rows(calibrated, meas))
     write = gate_outcome(res.gate.passed, res.gate.message(), args)
     plotted: dict[str, str] = {}
     if args.plot is not None:   # also when the gate fails: the picture helps most then
