@@ -38,6 +38,7 @@ from ..callbacks import StageProgress, reporter
 from ..core.config import MAX_SIDE_MISMATCH
 from ..errors import ConvergenceError, InputError, brief
 from .fitting import Minimum, fit_progress, gram, levenberg_marquardt, minimise, residual_jacobian
+from .held import prior_bound, table_held, with_table_held
 from .identifiability import DEFAULT_THRESHOLD, Identifiability, analyse, triangular_factor
 from .measurements import SIGMA_RANGE, Measurements
 from .model import ParameterSet, PoseModel, pose_model, prior_scale
@@ -209,14 +210,6 @@ def _joints_on_rods(model: PoseModel, params: ParameterSet, residuals: Callable[
     return start, moved, gross
 
 
-def prior_bound(params: ParameterSet, scale: Array, bound: ArrayLike | None) -> Array:
-    """Each parameter's a-priori worst-case deviation (coordinates): ``bound`` where given (a tolerance table's;
-    ``nan``: none), else 3 a-priori standard deviations; within the coordinate's range."""
-    b = 3.0 * scale if bound is None else np.where(np.isnan(np.asarray(bound, dtype=float)), 3.0 * scale, bound)
-    lo, hi = params.bounds
-    return np.asarray(np.minimum(b, np.maximum(params.nominal - lo, hi - params.nominal)), dtype=np.float64)
-
-
 def noise_origin(kind: str, column: Array | None, given: bool, value: float) -> str:
     """What the sigma ``value`` of a ``kind`` (``position``, ``angle``) is: ``the file's sigma_position`` (its
     ``column``), ``declared`` (``given``: ``--sigma-position``), ``a laser tracker's`` (the defaults
@@ -337,9 +330,10 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     the noise assumed (the gate's chi-square against it, its outliers by the residuals' robust scale);
     ``threshold`` bounds the scaled singular values of the identifiable directions (:mod:`.identifiability`);
     ``prior`` gives the a-priori standard deviations that scale them (:func:`~.model.prior_scale`: a tolerance
-    table's, or the parameters' scales) and ``bound`` their worst-case deviations (:func:`prior_bound`) for the bias
-    of the held ones; ``frame`` names the frame the measurements are in (for messages). ``progress`` hears the
-    share done of each stage as it goes: ``identifiability`` (the Jacobian at nominal), each start's iterations
+    table's, or the parameters' scales) and ``bound`` their worst-case deviations (:func:`~.held.prior_bound`) for
+    the bias of the held ones (a failed chi-square names those the table held: :func:`~.held.table_held`);
+    ``frame`` names the frame the measurements are in (for messages). ``progress`` hears the share done of each
+    stage as it goes: ``identifiability`` (the Jacobian at nominal), each start's iterations
     (:func:`~.fitting.fit_progress`), ``standard errors`` (the Jacobian at the estimate), ``cross-validation``.
 
     A fit that does not converge is returned with its diagnostics (``convergence``, ``gate``), not raised.
@@ -353,6 +347,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     if not isinstance(meas, Measurements):
         raise InputError(f'meas = {brief(meas)}; allowed: Measurements (read_measurements)')
     params = model.parameters
+    free = free if free is None or isinstance(free, (str, bytes)) else list(free)   # selected twice
     mask = free_of(params, free, prior)   # a tolerance of 0 fixes its parameter
     n_free = int(mask.sum())
     n = len(meas)
@@ -428,6 +423,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     weak = weak_at_estimate(params, fit, se, scale)
     gate = with_reading(_gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more,
                               spread(h, best.residual), weak), model, meas, theta0)   # a hint where far off
+    gate = with_table_held(gate, table_held(params, J0, free_idx, scale, ident, params.select(free), mask))
     warnings = far_from_prior(params, fit, theta, theta0, scale, frame) + weak
     if gross is not None and gross[1] and best.label.startswith(ON_RODS):   # held on their rods, not nominal
         ident = replace(ident, combinations=tuple(replace(c, held_at='its rod\'s place') if c.held in gross[1] else c
