@@ -26,6 +26,7 @@ optional ``sigma_position`` and ``bx by bz``.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -138,6 +139,21 @@ class ArmModel:
             pos[s] = p0[s] + np.einsum('nij,nj->ni', R0[s], point)
             rot[s] = R0[s] @ blade.rotation
         return pos, rot
+
+    def swapped_columns(self) -> list[tuple[str, ArmModel]]:
+        """This model with two joint columns of one of its files swapped, for each pair of joints and each file (a
+        header that names the joints in another order; the other files are read as they are):
+        :func:`~.plausibility.other_reading`'s readings."""
+        pts, names = self.meas.points, self.arm.joint_names
+        files = np.array(pts.files or (pts.source,) * len(pts))
+        out = []
+        for f in dict.fromkeys(files.tolist()):
+            for a, b in itertools.combinations(range(len(names)), 2):
+                J = self.meas.joints.copy()
+                J[np.ix_(files == f, [a, b])] = J[np.ix_(files == f, [b, a])]
+                out.append((f'the points fit this machine with columns {names[a]} and {names[b]} of {f} swapped',
+                            ArmModel(self.robot, dataclasses.replace(self.meas, joints=J))))
+        return out
 
 
 def _arm_of(robot: RobotDescription, cols: Sequence[str], source: str) -> Arm:

@@ -30,6 +30,7 @@ bound, reduced chi-square 18-36). The fit refines them.
 """
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -172,6 +173,18 @@ class FramedModel:
         """The inner model's :meth:`~.core_model.CoreModel.side_mismatch` at coordinates ``theta (P,)``."""
         assert self._inner_family is not None
         return float(self._inner_family[1](self.inner_theta(np.asarray(theta, dtype=float)[None])[0]))
+
+    def swapped_columns(self) -> list[tuple[str, FramedModel]]:
+        """The inner model's other readings of its own columns (an arm's joints swapped:
+        :meth:`~.arm.ArmModel.swapped_columns`), each about this model's frames: :func:`~.plausibility.other_reading`'s.
+        """
+        readings = getattr(self.inner, 'swapped_columns', None)
+        out = []
+        for words, inner in readings() if callable(readings) else []:
+            other = copy.copy(self)
+            other.inner = inner   # the same parameters, frames and datum: only the columns read differ
+            out.append((words, other))
+        return out
 
     def registered(self, meas: Measurements) -> Array:
         """Coordinates ``(P,)``: the geometry nominal, the frames fitted alone to ``meas`` (Levenberg-Marquardt from

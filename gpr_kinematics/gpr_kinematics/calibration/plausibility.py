@@ -149,14 +149,17 @@ def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
     read another way (:data:`BETTER_READING`): the positions 1000 times or a thousandth of their values (a column's
     unit: ``x [mm]`` over metres) or two of the columns x, y, z swapped, judged by the RMS position error; or two of
     the rod lengths q1, q2, q3 swapped, judged by the RMS angle error of measured poses (a swap tilts the platform
-    the other way; its origin hardly moves) or the RMS position error of points; the best such reading."""
-    refine = getattr(model, 'registered', None)
+    the other way; its origin hardly moves) or the RMS position error of points; or the model's own columns read
+    another way (its ``swapped_columns()``: an arm's joint columns of one file swapped, :class:`~.arm.ArmModel`),
+    judged by the RMS position error; the best such reading."""
     poses = meas.quaternion is not None
 
-    def rms(position: Array, q: Array, quaternion: Array | None = meas.quaternion) -> tuple[float, float, bool]:
+    def rms(position: Array, q: Array, quaternion: Array | None = meas.quaternion,
+            read: PoseModel = model) -> tuple[float, float, bool]:
+        refine = getattr(read, 'registered', None)
         try:   # a reading beyond the coordinates' bound is refused (InputError) as a file of it would be
             m = replace(meas, position=position, q=q, quaternion=quaternion)
-            e = measured_errors(model, m, refine(m) if callable(refine) else theta0)
+            e = measured_errors(read, m, refine(m) if callable(refine) else theta0)
         except GprError:
             return math.inf, math.inf, False
         return (float(np.sqrt(np.mean(np.sum(e[:, :3] ** 2, axis=1)))),
@@ -188,6 +191,9 @@ def other_reading(model: PoseModel, meas: Measurements, theta0: Array) -> str:
              if r[2] and r[kind] <= BETTER_READING * read[kind]]
     found += [(r[1] / max(read[1], 1e-300), r[1], 1, words) for words, quaternion in quaternions
               for r in [rms(p, q, quaternion)] if r[2] and r[1] <= BETTER_READING * read[1]]
+    columns = getattr(model, 'swapped_columns', None)   # the model's own columns: an arm's joints
+    found += [(r[0] / max(read[0], 1e-300), r[0], 0, words) for words, other in (columns() if callable(columns) else [])
+              for r in [rms(p, q, read=other)] if r[2] and r[0] <= BETTER_READING * read[0]]
     if not found:
         return ''
     _, r, kind, words = min(found)
