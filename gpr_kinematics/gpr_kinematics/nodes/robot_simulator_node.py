@@ -196,7 +196,7 @@ class RobotSimulatorNode(GprNode):
             return
         state = (self.actual if self.pending is None else self.pending).copy()
         state[taken] = values
-        wrong = outside(self.joints, self.cfg, state)
+        wrong = self._outside(state)
         if wrong:
             self.refusals.warn(f'joint_states of another publisher ignored: {wrong}')
             return
@@ -230,6 +230,10 @@ class RobotSimulatorNode(GprNode):
             return
         self.actual, self.command = state, None
         self.velocity[:] = 0.0
+
+    def _outside(self, state: Any) -> str:
+        """:func:`~gpr_kinematics.nodes.foreign_states.outside` with the node's joints and geometry."""
+        return outside(self.joints, self.cfg, state)
 
     def _idle(self) -> None:
         period = round(NS_PER_S / float(self.p['idle_rate']))
