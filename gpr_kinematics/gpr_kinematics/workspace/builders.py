@@ -176,7 +176,13 @@ def model_from_mapping(data: Any, source: str = 'mechanism', overrides: Mapping[
     src = f'{source} ({kind})'
     check_keys(ws, (*_WORKSPACE_KEYS, *extra), f'{src}: workspace')
     scale = None if ws.get('angle_scale') is None else number_key(ws, 'angle_scale', src)
-    model = builder(data, ws, src, scale)
+    try:
+        model = builder(data, ws, src, scale)
+    except ConfigError as exc:   # a model's constructor names its type alone ('shell_arm: l1 = 3e-07; ...')
+        text = str(exc)
+        if text.startswith(source):
+            raise
+        raise ConfigError(f'{src}: {text.removeprefix(f"{kind}: ")}') from None
     if isinstance(model, WorkspaceModel):
         model.box = box_from(ws, model.variables, model.box, src)
         try:
