@@ -811,9 +811,16 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     ax1, ax2 = fig.axes
     assert ax1.get_ylim()[1] == pytest.approx(96.0 * 1.02) and ax1.patches[0].get_data()[0].tolist() == [90.0, 80.0]
     assert [t.get_text() for t in ax2.texts] == ['no wafer carried']
+    # the title says so too (it read 'max slip ratio 0.000 (a bound; limit 1)'), and a wafer carried without a slip
+    # ratio (held still) is no 'no wafer carried' (the panel was chosen by the ratio above 0)
+    title = fig._suptitle.get_text()
+    assert title.endswith('(margin 2 mm), no wafer carried') and 'slip ratio' not in title, title
+    import dataclasses
+    still = dataclasses.replace(report, wafer_carried=True, max_slip_at=1.0, slip_label='steps[0] (move a, move)')
+    fig3 = check_figure(clear, (np.array([0.0, 2.0]), np.zeros(2)), still)
+    assert len(fig3.axes[1].texts) == 0 and 'max slip ratio 0.000 (' in fig3._suptitle.get_text()
     # unsafe by the slip alone: the curve is refined to each pair's least distance (said), but no x is drawn, so none
     # is named (the legend named "the first approach is the x" with no x and no pair below the margin)
-    import dataclasses
     slipping = dataclasses.replace(report, safe=False, max_slip_ratio=1.025)
     fig2 = check_figure(clear, (np.array([0.0, 2.0]), np.array([0.5, 1.025])), slipping)
     curve = fig2.axes[0].patches[0].get_label()
@@ -823,13 +830,13 @@ def test_the_plot_raises_its_top_to_a_least_clearance_above_it_and_says_when_no_
     assert (least.get_xdata()[0], least.get_ydata()[0], least.get_label()) == (1.5, 80.0, 'least 80.000 mm at 1.500 s:'
                                                                                '\na / b')
     assert fig._suptitle.get_text().startswith('program against itself (no cell): safe\nminimum clearance 80.000 mm')
-    assert fig._suptitle.get_text().endswith('(a bound; limit 1)')
+    assert fig3._suptitle.get_text().endswith('(a bound; limit 1)')
     assert ax1.patches[0].get_label().startswith('certified')
     import matplotlib.pyplot as plt
     plt.close(fig)
     # a model whose bounds between samples are first order: the figure does not call them certified
-    fig = check_figure(clear, (np.array([0.0, 2.0]), np.zeros(2)), dataclasses.replace(report, model='polar',
-                                                                                      proven=False))
+    fig = check_figure(clear, (np.array([0.0, 2.0]), np.zeros(2)), dataclasses.replace(still, model='polar',
+                                                                                     proven=False))
     assert fig._suptitle.get_text().endswith('(a first-order bound: polar; limit 1)')
     assert fig.axes[0].patches[0].get_label().startswith('first-order clearance')
     plt.close(fig)

@@ -82,7 +82,7 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     ax1.legend(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8)
     ax2.plot(slip[0], slip[1], lw=1, label='slip ratio of the carried wafer')
     ax2.axhline(1.0, color='r', lw=1, label='slips at 1')
-    if report.max_slip_ratio > 0.0:
+    if report.wafer_carried:
         ax2.plot([report.max_slip_at], [report.max_slip_evaluated], 'v', color='k', ms=7,
                  label=f'largest {report.max_slip_evaluated:.3f} at {report.max_slip_at:.3f} s:\n{report.slip_label}')
     else:
@@ -94,10 +94,11 @@ def check_figure(clear: ClearanceReport, slip: tuple[NDArray[np.float64], NDArra
     _mark_stations(report, (ax1, ax2))
     what = Path(program).name if program is not None else 'program'
     where = f'in cell {Path(report.cell).name}' if report.cell else 'against itself (no cell)'
+    slip_text = (f'max slip ratio {report.max_slip_ratio:.3f} ({report.bound}'
+                 f'{"" if report.proven else ": " + report.model}; limit 1)' if report.wafer_carried
+                 else 'no wafer carried')
     fig.suptitle(f'{what} {where}: {"safe" if report.safe else "NOT safe"}\nminimum clearance {least:.3f} mm '
-                 f'(margin {report.margin * 1e3:g} mm), max slip ratio {report.max_slip_ratio:.3f} '
-                 f'({report.bound}{"" if report.proven else ": " + report.model}; limit 1)' + _beyond(report.budget),
-                 fontsize=10)
+                 f'(margin {report.margin * 1e3:g} mm), {slip_text}' + _beyond(report.budget), fontsize=10)
     return fig
 
 
