@@ -1011,3 +1011,23 @@ def test_a_sigma_option_for_a_file_with_that_column_is_refused(tmp_path, capsys,
     assert status == 2 and not out.exists() and err.count('\n') == 1
     assert f'have their own {column} column, which the fit takes; allowed: {option[0]} for a file without that ' \
         'column' in err, err
+
+
+def test_measured_rows_without_a_pose_are_named_apart_from_the_tilted_ones(monkeypatch):
+    """A review: rows whose closure finds no pose (NaN) were told to raise tilt_limit 'to at least' the limit itself;
+    they are named apart, with what helps (checking them), the tilted ones as before."""
+    import types
+
+    from gpr_kinematics.calibration import core_model
+
+    meas = read_measurements(SHIPPED)
+    tilt = np.full(len(meas), 0.01)
+    tilt[[0, 3]], tilt[5] = math.nan, 0.04
+    monkeypatch.setattr(core_model, 'forward_batch', lambda *a, **k: types.SimpleNamespace(tilt=tilt))
+    tilted, lost = core_model.refused_rows(load_config(), meas)
+    assert tilted.startswith('the calibrated machine tilts its platform beyond its tilt_limit of 0.034906585 rad '
+                             f'(2 deg) at 1 of the 40 measured rows ({SHIPPED}: line {meas.lines[5]}; up to 0.04 rad')
+    assert 'raise tilt_limit in the written file to at least 0.04 rad' in tilted
+    assert lost == (f'the calibrated machine has no platform pose at 2 of the 40 measured rows ({SHIPPED}: line '
+                    f'{meas.lines[0]}, line {meas.lines[3]}): forward kinematics with the written file (gpr fk '
+                    '--config) refuses them; check those rows (their rods) or measure again')

@@ -268,19 +268,25 @@ def refused_rows(config: GprConfig, meas: Measurements) -> tuple[str, ...]:
     bad = np.flatnonzero(~(tilt <= config.tilt_limit + TILT_LIMIT_SLACK))    # NaN too: no pose
     if not bad.size:
         return ()
-    names = [meas.row_names[int(i)] for i in bad[:ROWS_SHOWN]]
-    more = f' and {bad.size - ROWS_SHOWN} more' if bad.size > ROWS_SHOWN else ''
-    finite = tilt[bad][np.isfinite(tilt[bad])]
-    worst = float(np.max(finite, initial=config.tilt_limit))
-    shown, limit = tilt_words(worst, config.tilt_limit)
-    shown = f'up to {shown}' if finite.size else 'no pose found'
-    return (f'the calibrated machine tilts its platform beyond its tilt_limit of {limit} at {bad.size} of the '
-            f'{len(meas)} measured rows ({meas.source}: {", ".join(names)}{more}; {shown}), '
-            f'which calibrate took (it takes rows up to {100 * (TILT_MARGIN - 1):.0f} % beyond the tilt limit of the '
-            'given geometry): forward kinematics with the written file (gpr fk --config) refuses them (beyond the '
-            f'tilt limit); raise tilt_limit in the written file to at least {math.ceil(worst * 1e6) / 1e6:g} rad if '
-            'this machine is right and tilts so far, or '
-            'measure within the limit',)
+    def rows(which: np.ndarray) -> str:
+        more = f' and {which.size - ROWS_SHOWN} more' if which.size > ROWS_SHOWN else ''
+        return f'{meas.source}: {", ".join(meas.row_names[int(i)] for i in which[:ROWS_SHOWN])}{more}'
+    tilted, lost = bad[np.isfinite(tilt[bad])], bad[~np.isfinite(tilt[bad])]
+    out = []
+    if tilted.size:
+        worst = float(np.max(tilt[tilted]))
+        shown, limit = tilt_words(worst, config.tilt_limit)
+        out.append(f'the calibrated machine tilts its platform beyond its tilt_limit of {limit} at {tilted.size} of '
+                   f'the {len(meas)} measured rows ({rows(tilted)}; up to {shown}), which calibrate took (it takes '
+                   f'rows up to {100 * (TILT_MARGIN - 1):.0f} % beyond the tilt limit of the given geometry): forward '
+                   'kinematics with the written file (gpr fk --config) refuses them (beyond the tilt limit); raise '
+                   f'tilt_limit in the written file to at least {math.ceil(worst * 1e6) / 1e6:g} rad if this machine '
+                   'is right and tilts so far, or measure within the limit')
+    if lost.size:   # no tilt_limit helps these: the written geometry has no pose there
+        out.append(f'the calibrated machine has no platform pose at {lost.size} of the {len(meas)} measured rows '
+                   f'({rows(lost)}): forward kinematics with the written file (gpr fk --config) refuses them; check '
+                   'those rows (their rods) or measure again')
+    return tuple(out)
 
 
 def fitted_covariance(model: PoseModel, res: CalibrationResult, frame: str = '') -> GeometryCovariance | None:
