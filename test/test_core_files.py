@@ -416,5 +416,21 @@ def test_a_folder_that_refuses_the_temporary_file_says_what_is_allowed(tmp_path)
     """An attacker's review: ``--waypoints /proc/self/fd/1.csv`` passed the output's checks (its folder exists) and
     was refused without an 'allowed:' when the temporary file could not be made there."""
     with pytest.raises(FileError, match=r"^cannot write joint table file '/proc/self/fd/1\.csv': .*; allowed: a new "
-                       r'file or a regular file to replace, in a folder where files can be created$'):
+                       r'file or a regular file to replace, in a folder where files can be created and renamed$'):
         files.write_text('/proc/self/fd/1.csv', 'x', 'joint table')
+
+
+def test_a_write_that_fails_says_what_would_help(tmp_path, monkeypatch):
+    """A review: every failure after the checks read 'allowed: an output with room for it'; a full disk says so, a
+    name the temporary file's suffix makes too long says that."""
+    long = tmp_path / ('x' * (os.pathconf(tmp_path, 'PC_NAME_MAX') - 4) + '.csv')   # fits; its .PID.tmp does not
+    with pytest.raises(FileError, match=r': File name too long; allowed: a shorter file name \(its temporary file adds '
+                                        r'\.PID\.tmp\)$'):
+        files.write_text(long, 'x', 'CSV')
+
+    def full(*args: object) -> None:
+        raise OSError(28, 'No space left on device')
+
+    monkeypatch.setattr(os, 'replace', full)
+    with pytest.raises(FileError, match=r'No space left on device; allowed: an output with room for it$'):
+        files.write_text(tmp_path / 'out.csv', 'x', 'CSV')

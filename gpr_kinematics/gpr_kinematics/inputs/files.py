@@ -30,8 +30,7 @@ Two rules hold within a context (a ``contextvars`` context: a thread, a task):
   back. What another process replaced meanwhile is left, and a command that ends to find one of its outputs replaced
   fails naming it (two commands writing the same pair of files each said it had written both).
 
-Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file (``what``), the path, what is
-allowed."""
+Every problem is a :class:`~gpr_kinematics.errors.FileError` naming the kind of file, the path, what is allowed."""
 from __future__ import annotations
 
 import contextlib
@@ -417,9 +416,10 @@ def atomic_output(path: str | os.PathLike[str], what: str, binary: bool = False)
             yield fh
         check_output(target, what)  # the target may have been replaced by something else meanwhile
         _replace(tmp, target)
-    except OSError as exc:   # no temporary file in the folder (/proc/self/fd/1.csv), or the writing failed
-        allowed = ('a new file or a regular file to replace, in a folder where files can be created' if not_made
-                   else 'an output with room for it')
+    except OSError as exc:   # the writing, the folder (no temporary file: /proc/self/fd/1.csv) or the name failed
+        allowed = ('an output with room for it' if exc.errno in (errno.ENOSPC, errno.EDQUOT) else 'a shorter file '
+                   'name (its temporary file adds .PID.tmp)' if exc.errno == errno.ENAMETOOLONG else 'a new file or a '
+                   'regular file to replace, in a folder where files can be created and renamed')
         raise FileError(f'cannot write {what} file {os.fspath(path)!r}: {exc.strerror or exc}; allowed: {allowed}'
                         ) from None
     finally:
