@@ -191,8 +191,8 @@ def test_upu3_matches_the_mechanism_limb_lengths():
     ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
       'branch': 1.0}, 'branch must be 1 or -1'),
     ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
-      'theta_min': -4.0, 'theta_max': 3.0}, r'rrr3_planar: theta_min = -4.0, theta_max = 3.0 rad; allowed: theta_min '
-                                            r'< theta_max < theta_min \+ 2 pi'),
+      'theta_min': -4.0, 'theta_max': 3.0}, r'^test \(rrr3_planar\): theta_min = -4.0, theta_max = 3.0 rad; allowed: '
+                                            r'theta_min < theta_max < theta_min \+ 2 pi'),   # the file named
     ({'type': 'rrr3_planar', 'base_radius': 0.1, 'platform_radius': 0.05, 'crank': 0.05, 'coupler': 0.05,
       'base_angles': [0, 1, True]}, r'base_angles\[2\] must be a finite number in rad'),
     ({'type': 'shell_arm', 'l1': 0.3, 'l2': 0.2, 'workspace': {'box': {'x': [False, 1]}}}, 'workspace.box.x'),
