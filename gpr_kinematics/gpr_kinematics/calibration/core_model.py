@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import forward_batch
+from ..core import ForwardBatch, forward_batch
 from ..core.config import GprConfig
 from ..core.forward import TILT_LIMIT_SLACK, tilt_words
 from ..core.geometry_covariance import BASE_NAMES, KEY, GeometryCovariance, RegisteredBase, parse_covariance
@@ -238,12 +238,19 @@ def check_limits(meas: Measurements, config: GprConfig) -> None:
                          'pose measured at the limit of a machine that tilts a little more than its nominal one)')
 
 
-def beyond_budget(config: GprConfig, q: Array) -> tuple[str, ...]:
+def measured_forward(config: GprConfig, q: Array) -> ForwardBatch:
+    """The forward kinematics of the calibrated machine ``config`` at the measured rods ``q (N, 3)`` [m], the limits
+    unchecked: what :func:`beyond_budget` and :func:`refused_rows` judge (computed once for both)."""
+    return forward_batch(q, config, check_limits=False)
+
+
+def beyond_budget(config: GprConfig, q: Array, fk: ForwardBatch | None = None) -> tuple[str, ...]:
     """A warning where the calibrated machine ``config`` displaces its joints at the measured rods ``q (N, 3)`` [m]
-    beyond its ``imperfection_budget`` (the largest |joint displacement| of its forward kinematics): its recordings
-    then fail ``gpr verify``'s ``state.imperfection_budget`` and ``forward`` says ``within_budget: false``, with
-    nothing at calibration time to say why."""
-    worst = float(np.max(np.abs(forward_batch(q, config, check_limits=False).joint_displacement), initial=0.0))
+    beyond its ``imperfection_budget`` (the largest |joint displacement| of its forward kinematics ``fk``, computed
+    when not given: :func:`measured_forward`): its recordings then fail ``gpr verify``'s ``state.imperfection_budget``
+    and ``forward`` says ``within_budget: false``, with nothing at calibration time to say why."""
+    fk = measured_forward(config, q) if fk is None else fk
+    worst = float(np.max(np.abs(fk.joint_displacement), initial=0.0))
     if not worst > config.imperfection_budget:
         return ()
     return (f'the calibrated machine displaces its joints by up to {1e3 * worst:.4g} mm at the measured poses, beyond '
@@ -256,15 +263,18 @@ def beyond_budget(config: GprConfig, q: Array) -> tuple[str, ...]:
 ROWS_SHOWN = 5
 
 
-def refused_rows(config: GprConfig, meas: Measurements) -> tuple[str, ...]:
+def refused_rows(config: GprConfig, meas: Measurements, fk: ForwardBatch | None = None) -> tuple[str, ...]:
     """A warning where the forward kinematics of the calibrated machine ``config`` refuses measured rows: the rods
     ``meas.q`` tilt it beyond its ``tilt_limit`` (:func:`check_limits` let them be up to :data:`TILT_MARGIN` beyond
     the limit, and a machine of larger zero offsets tilts more than its nominal one), or its closure finds no pose
     there. ``gpr fk --config`` of the written file then exits 2 at configurations the machine was measured at. The
     stroke is the one :func:`check_limits` held the rows to (a calibration does not change it). The rows are named by
     their file lines (the first :data:`ROWS_SHOWN`, then how many more), with what to do; ``tilt_limit`` is not
-    changed here: it is the machine's limit, not the fit's."""
-    tilt = np.asarray(forward_batch(meas.q, config, check_limits=False).tilt, dtype=float)
+    changed here: it is the machine's limit, not the fit's. ``fk``: :func:`measured_forward`, computed when not given.
+    (Forward kinematics without the limits raises where its closure fails, rather than giving NaN: the rows without a
+    pose are named apart should a NaN tilt come, a guard.)"""
+    fk = measured_forward(config, meas.q) if fk is None else fk
+    tilt = np.asarray(fk.tilt, dtype=float)
     bad = np.flatnonzero(~(tilt <= config.tilt_limit + TILT_LIMIT_SLACK))    # NaN too: no pose
     if not bad.size:
         return ()

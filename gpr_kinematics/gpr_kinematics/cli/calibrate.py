@@ -69,6 +69,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         beyond_budget,
         check_limits,
         fitted_covariance,
+        measured_forward,
         refused_rows,
         write_calibrated_config,
     )
@@ -106,8 +107,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         calibrated = core.config_for(model.inner_theta(res.estimate[None])[0])
     else:
         calibrated = core.config_for(res.estimate)
-    res = replace(res, warnings=res.warnings + beyond_budget(calibrated, meas.q)
-                  + refused_rows(calibrated, meas))
+    fk = measured_forward(calibrated, meas.q)   # once for both warnings
+    res = replace(res, warnings=res.warnings + beyond_budget(calibrated, meas.q, fk)
+                  + refused_rows(calibrated, meas, fk))
     write = gate_outcome(res.gate.passed, res.gate.message(), args)
     plotted: dict[str, str] = {}
     if args.plot is not None:   # also when the gate fails: the picture helps most then
