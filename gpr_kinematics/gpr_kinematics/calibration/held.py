@@ -9,6 +9,7 @@ and the refusal named columns, frames and noise but not those parameters.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -81,11 +82,14 @@ def table_held(params: ParameterSet, J_scaled: Array, free_idx: NDArray[np.int64
     return TableHeld(tuple(c.held for c in combos), tuple(c.singular_value for c in combos), exact, ident.threshold)
 
 
-def with_table_held(gate: Gate, held: TableHeld) -> Gate:
-    """``gate`` with :meth:`TableHeld.words` after its chi-square's where that failed."""
+def with_table_held(gate: Gate, held: Callable[[], TableHeld]) -> Gate:
+    """``gate`` with :meth:`TableHeld.words` of ``held()`` after its chi-square's where that failed (the analysis it
+    takes is made only then)."""
     check = next((c for c in gate.checks if c.name == 'chi_square'), None)
-    words = held.words()
-    if check is None or check.passed or not words:
+    if check is None or check.passed:
+        return gate
+    words = held().words()
+    if not words:
         return gate
     said = replace(check, detail=f'{check.detail} {words}')
     return Gate(tuple(said if c is check else c for c in gate.checks))

@@ -423,7 +423,7 @@ def identify(model: PoseModel, meas: Measurements, free: Iterable[str] | None = 
     weak = weak_at_estimate(params, fit, se, scale)
     gate = with_reading(_gate(best, params, fit, chi2_red, dof, noise, cv.ratio, names, more,
                               spread(h, best.residual), weak), model, meas, theta0)   # a hint where far off
-    gate = with_table_held(gate, table_held(params, J0, free_idx, scale, ident, params.select(free), mask))
+    gate = with_table_held(gate, lambda: table_held(params, J0, free_idx, scale, ident, params.select(free), mask))
     warnings = far_from_prior(params, fit, theta, theta0, scale, frame) + weak
     if gross is not None and gross[1] and best.label.startswith(ON_RODS):   # held on their rods, not nominal
         ident = replace(ident, combinations=tuple(replace(c, held_at='its rod\'s place') if c.held in gross[1] else c
