@@ -22,18 +22,17 @@ from xml.sax.saxutils import unescape
 
 import numpy as np
 from action_msgs.msg import GoalStatus
-from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory as JointTrajectoryMsg
 from trajectory_msgs.msg import JointTrajectoryPoint
 
-from ..core.messages import duration_parts
 from ..errors import GprError, brief
 from ..robot.controller import ERROR_NAMES, joint_state_values
 from ..robot.trajectory import JointTrajectory
 from .client import GprClient, ServiceTimeoutError
+from .conversions import duration_msg
 from .qos import action_client_options, latched_qos, stream_qos
 
 #: Time [s] for a subscription to match a publisher the graph already shows.
@@ -46,9 +45,8 @@ def trajectory_msg(traj: JointTrajectory) -> JointTrajectoryMsg:
     """``trajectory_msgs/JointTrajectory`` of ``traj`` (header stamp 0: start when it arrives)."""
     points = []
     for i in range(len(traj)):
-        sec, nanosec = duration_parts(float(traj.time[i]))
         pt = JointTrajectoryPoint(positions=traj.positions[i].tolist(),
-                                  time_from_start=Duration(sec=sec, nanosec=nanosec))
+                                  time_from_start=duration_msg(float(traj.time[i])))
         if traj.velocities is not None:
             pt.velocities = traj.velocities[i].tolist()
         if traj.accelerations is not None:
