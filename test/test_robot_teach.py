@@ -266,9 +266,11 @@ def test_reteach_under_nearest_says_the_posture_changed(tmp_path, capsys):
     typed = ['--rods', *(repr(float(v)) for v in q), '--joints', *(repr(float(v)) for v in old[0]), '--naive']
     argv = ['robot', 'teach', '--robot', str(robot), '--arm', 'arm2', *typed]
     assert main(argv) == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 2 and lines[1] == (
-        f'0: warning: the posture changed: arm2_elbow moved {change[0, 1]:+.3f} rad, arm2_wrist moved '
+    out, err = capsys.readouterr()
+    assert len(out.splitlines()) == 1 and out.startswith('0: meant '), out   # the station's line; the warning apart
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0] == (
+        f'gpr robot teach: warning: 0: the posture changed: arm2_elbow moved {change[0, 1]:+.3f} rad, arm2_wrist moved '
         f'{change[0, 2]:+.3f} rad, arm2_hand moved {change[0, 3]:+.3f} rad from the old joints (more than 0.01 rad); '
         'arm arm2 takes the posture nearest its reference (redundancy rule nearest), not the old one: under the rule '
         "fixed_joint re-teach keeps its held joint's old value"), lines

@@ -168,9 +168,12 @@ def _cmd_teach(args: argparse.Namespace) -> int:
                   + ', '.join(f'{k} = {v:.9f}' for k, v in row.arm.items())
                   + f' rad; the old joints missed by {row.avoided_error * 1e6:.3f} um')
             if row.moved:   # another posture, not a correction (nearest: hi_j3 0.89 rad away for 3.6 um, unsaid)
-                print(f'{row.name}: warning: the posture changed: ' + ', '.join(f'{k} moved {v:+.3f} rad' for k, v in
-                                                                               row.moved.items())
-                      + f' from the old joints (more than {MOVED_JOINT:g} rad){_why_moved(robot.arm(args.arm))}')
+                # a warning: on stderr, as every command's; the stations' lines stay on stdout
+                import sys
+                print(f'gpr robot teach: warning: {row.name}: the posture changed: '
+                      + ', '.join(f'{k} moved {v:+.3f} rad' for k, v in row.moved.items())
+                      + f' from the old joints (more than {MOVED_JOINT:g} rad){_why_moved(robot.arm(args.arm))}',
+                      file=sys.stderr)
         else:
             st = row.station
             print(f'{row.name}: station {vec(st.position)} m, tilt {st.tilt:.9g}, azimuth {st.azimuth:.9g}, heading '
