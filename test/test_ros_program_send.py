@@ -236,7 +236,7 @@ def test_a_robot_reporting_joints_outside_their_limits_exits_1(ros_environment):
 def test_a_lagging_robot_prints_the_end_once_then_by_progress(ros_environment, tmp_path):
     """With a lag the simulator's feedback goes on while the joints settle after the last point: `--progress 100`
     printed a line per 10 ms sample from the end on (about 50); now the first feedback's and the end's, and the
-    lagging robot succeeds within a goal_time of several time constants."""
+    lagging robot succeeds within a goal_time of several time constants; `--no-progress` prints none of them."""
     program = tmp_path / 'short.yaml'
     program.write_text(f'format: gpr_robot_program\nversion: 1\nrobot: {config_path("robots/example_robot.yaml")}\n'
                        'units: {length: mm, angle: deg}\ndefaults: {arm: arm1}\nstations:\n'
@@ -248,8 +248,11 @@ def test_a_lagging_robot_prints_the_end_once_then_by_progress(ros_environment, t
     try:
         wait_for_log(sim, r'serving /gpr_lagsend/')
         res = _send(str(program), '--namespace', '/gpr_lagsend', '--progress', '100')
+        quiet = _send(str(program), '--namespace', '/gpr_lagsend', '--no-progress')   # from where the first ended
     finally:
         sim.stop()
+    assert quiet.returncode == 0 and quiet.stdout.startswith('sending ') and '  t = ' not in quiet.stdout \
+        and '\nsucceeded (error_code 0 SUCCESSFUL): ' in quiet.stdout, quiet.stdout + quiet.stderr
     lines = [line for line in res.stdout.splitlines() if line.startswith('  t = ')]
     assert res.returncode == 0 and '\nsucceeded (error_code 0 SUCCESSFUL): ' in res.stdout, \
         res.stdout + res.stderr + sim.output()

@@ -247,7 +247,7 @@ def _cmd_send(args: argparse.Namespace) -> int:
         def progress(fb: RosMessage) -> None:   # the end once, then every --progress s (a lag settles sample by sample)
             t = fb.desired.time_from_start.sec + fb.desired.time_from_start.nanosec * 1e-9
             end = t >= goal.duration and not clock['end']
-            if not args.json and (t >= clock['next'] or end):
+            if not (args.json or args.no_progress) and (t >= clock['next'] or end):
                 error = max((abs(e) for e in fb.error.positions), default=0.0)
                 print(f'  t = {t:8.3f} s of {goal.duration:.3f} s, largest error {error:.3g}', flush=True)
                 clock['next'], clock['end'] = t + args.progress, clock['end'] or t >= goal.duration
@@ -283,6 +283,7 @@ def send_parser(psub: Subparsers) -> None:
     p.add_argument('--timeout', type=number, default=10.0,
                    help='longest wait [s] for the server, the joint states, and the result after the end (default 10)')
     p.add_argument('--progress', type=number, default=1.0, help='seconds between progress lines (default 1)')
+    p.add_argument('--no-progress', action='store_true', help='no progress lines: the goal sent and its outcome only')
     add_margin(p, 'the program, its trajectory and the move to its start')
     robot_options(p, program=True, cell=True)
     p.set_defaults(handler=_cmd_send)
