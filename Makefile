@@ -73,7 +73,10 @@ $(STOCK_STAMP): requirements.txt requirements-stock.txt requirements-ros.txt req
 	awk -F'==' 'NR == FNR { if (NF == 2 && $$0 !~ /^#/) pin[tolower($$1)] = $$0; next } \
 		{ name = tolower($$1); print ((name in pin) ? pin[name] : $$0) }' \
 		requirements-stock.txt requirements.txt > $(STOCK_VENV)/requirements.txt
-	$(STOCK_PY) -m pip install --quiet -r $(STOCK_VENV)/requirements.txt -r requirements-ros.txt
+	awk -F'==' 'NR == FNR { if (NF == 2 && $$0 !~ /^#/) pin[tolower($$1)] = $$0; next } \
+		{ name = tolower($$1); print ((name in pin) ? pin[name] : $$0) }' \
+		requirements-stock.txt requirements-ros.txt > $(STOCK_VENV)/requirements-ros.txt
+	$(STOCK_PY) -m pip install --quiet -r $(STOCK_VENV)/requirements.txt -r $(STOCK_VENV)/requirements-ros.txt
 	$(STOCK_PY) -m pip install --quiet --no-deps -r requirements-test.txt
 	$(STOCK_PY) -m pip install --quiet --no-deps --no-build-isolation --config-settings editable_mode=compat -e gpr_kinematics
 	$(STOCK_PY) -m compileall -q gpr_kinematics/gpr_kinematics
