@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gpr_kinematics.calibration.arm import ArmMeasurements, ArmModel, arm_parameters, read_arm_measurements
+from gpr_kinematics.calibration.arm import ArmMeasurements, ArmModel, arm_parameters, arm_with, read_arm_measurements
 from gpr_kinematics.calibration.identification import identify
 from gpr_kinematics.calibration.measurements import Measurements
 from gpr_kinematics.calibration.synthetic import synthetic_measurements
@@ -19,7 +19,7 @@ from gpr_kinematics.core import naive_inverse
 from gpr_kinematics.errors import InputError
 from gpr_kinematics.robot import solve_stations
 from gpr_kinematics.robot.description import load_robot
-from gpr_kinematics.robot.forward import robot_forward
+from gpr_kinematics.robot.forward import platform_to_blade, robot_forward
 from gpr_kinematics.robot.stations import stations_from_poses
 from gpr_kinematics.robot.urdf import robot_urdf
 
@@ -82,6 +82,31 @@ def arm_case():
     Q, J = rows(robot, arm, 80, 1)
     on_blade = np.arange(80) % 2 == 1                        # half the rows a blade point, half the wafer centre
     return robot, ps, truth, measured(robot, 'arm1', truth, Q, J, on_blade, 2)
+
+
+def test_every_parameter_row_is_the_arm_of_those_values_through_the_robot_core(arm_case):
+    """``ArmModel.on_platform`` evaluates all rows of ``theta`` at once (blade_chain with per-row parameters); each
+    row equals the robot core's chain of the arm with that row's values (``arm_with``, ``platform_to_blade``, one row
+    at a time as before) to the last bit, blade points and wafer centres alike, on 4-joint arms too."""
+    robot, ps, _, meas = arm_case
+    cases = [(ArmModel(robot, meas), meas)]
+    arm2 = robot.arm('arm2')
+    Q, J = rows(robot, arm2, 12, 7)
+    on = np.arange(12) % 3 == 0
+    m2 = ArmMeasurements(Measurements('x', Q, np.zeros((12, 3)), None, None, None, tuple(range(2, 14))), 'arm2', J,
+                         np.where(on[:, None], BLADE_POINT, np.nan), on)
+    cases.append((ArmModel(robot, m2), m2))
+    rng = np.random.default_rng(11)
+    for model, m in cases:
+        params = model.parameters
+        theta = params.nominal + rng.normal(0.0, 3.0, (9, len(params)))   # a few a-priori sigmas off, every row
+        pos, rot = model.poses(theta, np.broadcast_to(m.points.q, (9,) + m.points.q.shape))
+        p0, R0 = model.platform(m.points.q)
+        for s, values in enumerate(params.values(theta)):
+            blade, wafer = platform_to_blade(arm_with(model.arm, values), m.joints)
+            point = np.where(m.on_blade[:, None], blade.apply(np.nan_to_num(m.blade)), wafer.position)
+            np.testing.assert_array_equal(pos[s], p0 + np.einsum('nij,nj->ni', R0, point))
+            np.testing.assert_array_equal(rot[s], R0 @ blade.rotation)
 
 
 def test_links_and_zero_offsets_identified_to_the_noise(arm_case):

@@ -3,7 +3,7 @@
 A tracker measures a target on the blade (the wafer centre of a fixture wafer, or a known point of the blade) at
 several arm configurations and platform poses. :class:`ArmModel` is a pose model (:mod:`.model`) of that point:
 the platform's pose from the robot's GPR (its geometry file, a calibrated one when there is one: not fitted
-here), the arm's chain (:func:`gpr_kinematics.robot.forward.platform_to_blade`, the one the robot core uses) with
+here), the arm's chain (:func:`gpr_kinematics.robot.forward.blade_chain`, the one the robot core uses) with
 the parameters of each row of ``theta``:
 
 * ``<joint>_length`` [m]: the link after each joint (the last: to the flange), a-priori 0.1 mm;
@@ -41,7 +41,7 @@ from ..inputs import safe_yaml
 from ..robot.arm_chain import LIMIT_SLACK
 from ..robot.description import LENGTH_BOUND, Arm, RobotDescription
 from ..robot.fields import LEAST
-from ..robot.forward import platform_to_blade
+from ..robot.forward import blade_chain
 from .core_model import check_limits
 from .files import comment_lines, read_text, write_text
 from .measurements import MAX_FILE_BYTES, REQUIRED_COLUMNS, Columns, Measurements, read_table
@@ -128,17 +128,16 @@ class ArmModel:
     def on_platform(self, theta: Array, position: Array, rotation: Array) -> tuple[Array, Array]:
         """The measured points ``(S, N, 3)`` and blade rotations ``(S, N, 3, 3)`` in ``gpr_base`` at coordinates
         ``theta (S, P)`` on the platform poses ``position (N, 3)``, ``rotation (N, 3, 3)`` (or one set per row of
-        ``theta``: ``(S, N, 3)``, ``(S, N, 3, 3)``): ``p = p0 + R0 x``."""
-        S, N = theta.shape[0], self.meas.joints.shape[0]
+        ``theta``: ``(S, N, 3)``, ``(S, N, 3, 3)``): ``p = p0 + R0 x``, ``x`` the blade's point or wafer centre by
+        :func:`~gpr_kinematics.robot.forward.blade_chain`, every row of ``theta`` at once."""
+        S, N, n = theta.shape[0], self.meas.joints.shape[0], len(self.arm.joints)
         p0, R0 = np.broadcast_to(position, (S, N, 3)), np.broadcast_to(rotation, (S, N, 3, 3))
-        values = self._parameters.values(theta)
-        pos, rot = np.empty((S, N, 3)), np.empty((S, N, 3, 3))
-        for s in range(S):
-            blade, wafer = platform_to_blade(arm_with(self.arm, values[s]), self.meas.joints)
-            point = np.where(self.meas.on_blade[:, None], blade.apply(self.meas.blade), wafer.position)
-            pos[s] = p0[s] + np.einsum('nij,nj->ni', R0[s], point)
-            rot[s] = R0[s] @ blade.rotation
-        return pos, rot
+        v = self._parameters.values(theta)[:, None, :]   # arm_parameters' order: (length, offset) per joint, ...
+        blade, R = blade_chain(self.arm, self.meas.joints, v[..., 0:2 * n:2], v[..., 1:2 * n:2],
+                               v[..., 2 * n + 3:2 * n + 5])
+        local = np.where(self.meas.on_blade[:, None], self.meas.blade, v[..., 2 * n:2 * n + 3])   # else the wafer
+        point = blade + np.einsum('snij,snj->sni', R, local)
+        return p0 + np.einsum('snij,snj->sni', R0, point), R0 @ R
 
     def swapped_columns(self) -> list[tuple[str, ArmModel]]:
         """This model with two joint columns of one of its files swapped, for each pair of joints and each file (a

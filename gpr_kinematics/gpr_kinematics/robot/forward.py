@@ -83,21 +83,33 @@ def arm_transforms(arm: Arm, joints: Array) -> list[tuple[str, str, PoseBatch]]:
     return out
 
 
-def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
-    """Blade and wafer poses in ``gpr_platform`` for joint values ``(N, n)``: the chain of :func:`arm_transforms`
-    composed in closed form (every joint turns about the platform normal, so the link directions add up:
-    ``Theta_n = mount_yaw + (theta_1 + o_1) + ... + (theta_n + o_n)``)."""
-    n = joints.shape[0]
-    Theta = arm.mount_yaw + np.cumsum(joints + arm.zero_offset, axis=1)
-    x = np.full(n, arm.mount_position[0])
-    y = np.full(n, arm.mount_position[1])
+def blade_chain(arm: Arm, joints: Array, lengths: Array | None = None, zero_offsets: Array | None = None,
+                mount_xy: Array | None = None) -> tuple[Array, Array]:
+    """The blade's position ``(..., N, 3)`` and rotation ``(..., N, 3, 3)`` in ``gpr_platform`` for joint values
+    ``(N, n)``: the chain of :func:`arm_transforms` in closed form (every joint turns about the platform normal, so
+    the link directions add up: ``Theta_n = mount_yaw + (theta_1 + o_1) + ... + (theta_n + o_n)``). The link
+    ``lengths``, ``zero_offsets`` and the mount's ``mount_xy`` are the arm's, or ``(..., 1, n)``, ``(..., 1, n)`` and
+    ``(..., 1, 2)`` arrays of other values, one set per leading index (a calibration's parameter rows) [m, rad]."""
+    offsets = arm.zero_offset if zero_offsets is None else zero_offsets
+    Theta = arm.mount_yaw + np.cumsum(joints + offsets, axis=-1)
+    shape = Theta.shape[:-1]
+    if mount_xy is None:
+        x, y = np.full(shape, arm.mount_position[0]), np.full(shape, arm.mount_position[1])
+    else:
+        x, y = np.broadcast_to(mount_xy[..., 0], shape), np.broadcast_to(mount_xy[..., 1], shape)
     for k, joint in enumerate(arm.joints):
-        c, s = np.cos(Theta[:, k]), np.sin(Theta[:, k])
-        x, y = x + c * joint.length, y + s * joint.length
+        c, s = np.cos(Theta[..., k]), np.sin(Theta[..., k])
+        length = joint.length if lengths is None else lengths[..., k]
+        x, y = x + c * length, y + s * length
     bx, by = arm.blade.position[0], arm.blade.position[1]  # in the last link's frame, from the flange
     x, y = x + c * bx - s * by, y + s * bx + c * by
     z = arm.mount_position[2] + sum(j.height for j in arm.joints) + arm.blade.position[2]
-    blade = PoseBatch(np.stack([x, y, np.full(n, z)], axis=1), rotation_z(Theta[:, -1] + arm.blade.yaw))
+    return np.stack([x, y, np.full(shape, z)], axis=-1), rotation_z(Theta[..., -1] + arm.blade.yaw)
+
+
+def platform_to_blade(arm: Arm, joints: Array) -> tuple[PoseBatch, PoseBatch]:
+    """Blade and wafer poses in ``gpr_platform`` for joint values ``(N, n)`` (:func:`blade_chain`)."""
+    blade = PoseBatch(*blade_chain(arm, joints))
     return blade, PoseBatch(blade.apply(arm.blade.wafer_centre), blade.rotation)
 
 
