@@ -199,6 +199,25 @@ def test_export_and_send_keep_the_margin_given_as_check_does(capsys, tmp_path):
                                                     'metres, at least 0 and at most 1 (5 mm? give 0.005)\n'), err
 
 
+def test_a_margin_of_decimetres_is_warned_of_as_millimetres_meant(capsys):
+    """``--margin 0.5`` is 500 mm between every pair of bodies (allowed up to 1 m), where 0.5 mm was likely meant:
+    check, export and send say so on stderr once, from LARGE_MARGIN (50 mm) on; below it, or asked without ``warn``
+    (send's later reads of the option), nothing."""
+    import argparse
+
+    from gpr_kinematics.cli.program_trajectory import LARGE_MARGIN, margin_of
+    for command in ('check', 'export', 'send'):
+        assert margin_of(argparse.Namespace(margin=0.5, program_command=command), warn=True) == 0.5
+        assert capsys.readouterr().err == (f'gpr program {command}: warning: --margin 0.5 m keeps every pair of bodies '
+                                           '500 mm apart: millimetres meant? (--margin is in metres: 0.0005 for 0.5 '
+                                           'mm; the default is 0.002)\n')
+    margin_of(argparse.Namespace(margin=LARGE_MARGIN, program_command='check'), warn=True)
+    assert 'warning: --margin 0.05 m keeps every pair of bodies 50 mm apart' in capsys.readouterr().err
+    for margin, warn in ((0.049, True), (0.5, False)):
+        margin_of(argparse.Namespace(margin=margin, program_command='check'), warn=warn)
+        assert capsys.readouterr().err == ''
+
+
 @pytest.mark.slow
 def test_export_shows_its_checks_progress_unless_no_progress(capsys, tmp_path, monkeypatch):
     """``export`` checks the program as ``check`` does (seconds on a real program) without a word, and had no

@@ -58,7 +58,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from ..safety.check import check_program
     if args.plot is not None:
         png_plot(args.plot)
-    margin = margin_of(args)
+    margin = margin_of(args, warn=True)
     sample_rate(args.rate)   # before the program is planned
     program, plan = program_plan(args)
     path = named_file(program, 'cell', args.cell)
@@ -179,7 +179,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     for option, path in (('--waypoints', args.waypoints), ('--samples', args.samples)):
         if path is not None:  # refused before the program is planned, named by its option
             check_table_path(path, option)
-    margin = margin_of(args)
+    margin = margin_of(args, warn=True)
     at_rate = args.samples is not None or args.trajectory is not None
     sample_rate(args.rate)  # with --waypoints alone too: a rate of 99999 Hz is a slip wherever it goes (docs/robot.md)
     _check_trajectory_output(args)

@@ -194,7 +194,7 @@ def _check_times(args: argparse.Namespace) -> None:
     if not 0.0 < args.progress <= 3600.0:  # NaN printed nothing, 0 or less a line per feedback
         raise InputError(f'--progress = {args.progress:.12g} s; allowed: 0 < progress <= 3600 s')
     sample_rate(args.rate)
-    margin_of(args)
+    margin_of(args, warn=True)
 
 
 def _refused_as_unsafe(args: argparse.Namespace, plan: ProgramPlan, traj: JointTrajectory, exc: UnsafeError) -> int:

@@ -38,15 +38,25 @@ def add_margin(p: argparse.ArgumentParser, what: str) -> None:
                    help=f'clearance below which a pair collides in {what} [m] (default {MARGIN:g}; 0 to 1)')
 
 
-def margin_of(args: argparse.Namespace) -> float:
+#: A ``--margin`` this large [m] or larger gets a warning: millimetres typed as metres? (25 times the default.)
+LARGE_MARGIN = 0.05
+
+
+def margin_of(args: argparse.Namespace, warn: bool = False) -> float:
     """``--margin`` [m] (:data:`MARGIN` when not given), refused before any work outside [0, 1] m, named as typed
-    (:func:`~gpr_kinematics.safety.clearance.check_length`, which names a margin typed in mm)."""
+    (:func:`~gpr_kinematics.safety.clearance.check_length`, which names a margin typed in mm); with ``warn``, one
+    at or above :data:`LARGE_MARGIN` is warned of on stderr (``--margin 0.5``: 500 mm, or 0.5 mm meant?)."""
     from ..safety.clearance import check_length
     from ..safety.margin import MARGIN_RANGE
     if args.margin is None:
         return MARGIN
     typed = repr(float(args.margin))   # the shortest that reads back: 1.0000000000000002 is not 1
-    check_length('--margin', args.margin, *MARGIN_RANGE, shown=typed[:-2] if typed.endswith('.0') else typed)
+    shown = typed[:-2] if typed.endswith('.0') else typed
+    check_length('--margin', args.margin, *MARGIN_RANGE, shown=shown)
+    if warn and args.margin >= LARGE_MARGIN:
+        print(f'gpr program {args.program_command}: warning: --margin {shown} m keeps every pair of bodies '
+              f'{args.margin * 1e3:g} mm apart: millimetres meant? (--margin is in metres: {args.margin / 1e3:g} for '
+              f'{shown} mm; the default is {MARGIN:g})', file=sys.stderr)
     return float(args.margin) + 0.0   # -0 typed: 0 (it printed 'margin -0 mm')
 
 
