@@ -333,6 +333,25 @@ def test_budget_options_of_the_wrong_kind_are_named(kwargs, words):
         accuracy_budget(CoreModel(load_config()), [[0.3, 0.3, 0.3]], table, samples=10, **kwargs)
 
 
+def test_too_few_samples_for_the_highest_percentile_are_warned_of():
+    """A p99 of 10 samples is their largest or between their largest two: warned of, with how many resolve it
+    (100: one sample beyond it); from that many on, and for lower percentiles at fewer, not."""
+    cfg = load_config()
+    table = parse_tolerances({'rod_length': {'tolerance': 1e-6}})
+    few = 'Monte Carlo sample'
+    cases = ((10, (50.0, 95.0, 99.0), '10 Monte Carlo samples leave none beyond their p99 (it is their largest or '
+              'between their largest two); at least 100 resolve it'),
+             (1, (99.0,), '1 Monte Carlo sample leaves none beyond its p99 (it is that sample); at least 100 resolve '
+              'it'), (19, (95.0,), '19 Monte Carlo samples leave none beyond their p95 (it is their largest or between '
+                      'their largest two); at least 20 resolve it'),
+             (20, (95.0,), None), (100, (50.0, 95.0, 99.0), None), (3, (50.0,), None))
+    for samples, percentiles, warning in cases:
+        budget = accuracy_budget(CoreModel(cfg), [[0.3, 0.3, 0.3]], table, samples=samples, seed=1,
+                                 percentiles=percentiles)
+        said = [w for w in budget.warnings if few in w]
+        assert said == ([] if warning is None else [warning]), (samples, said)
+
+
 def test_percentiles_may_be_any_sequence_of_numbers():
     """A numpy array of percentiles is a sequence of numbers (the check of strings must not refuse it)."""
     cfg = load_config()

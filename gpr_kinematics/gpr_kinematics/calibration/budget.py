@@ -375,7 +375,8 @@ def accuracy_budget(model: PoseModel, Q: ArrayLike, table: ToleranceTable, tool:
     return Budget(q=Qa, labels=labels_t, tool=tool_v, frame=str(frame), sources=names, rss=rss, worst=worst,
                   shares=shares, samples=int(samples), seed=seed, percentiles=pct, mc=mc, mc_rms=mc_rms,
                   mc_max=mc_max, mean=mean, std=np.sqrt(var), mc_mean=mc_mean, mc_std=mc_std,
-                  warnings=_warnings(labels_t, rss, mc_rms, worst, max_inside, samples) if samples else (),
+                  warnings=(_few(samples, pct) + _warnings(labels_t, rss, mc_rms, worst, max_inside, samples)
+                            if samples else ()),
                   kept=kept, compensated=_compensated(params.names, tols, cal))
 
 
@@ -383,6 +384,19 @@ def _compensated(names: Sequence[str], tols: list[Tolerance | None], cal: Calibr
     """The names of the tolerated parameters held by a calibration with an alias (:attr:`Budget.compensated`)."""
     held = [] if cal is None or cal[2] is None else cal[2][0].tolist()
     return tuple(names[j] for j in sorted(held) if tols[j] is not None)
+
+
+def _few(samples: int, percentiles: tuple[float, ...]) -> tuple[str, ...]:
+    """A warning where the Monte Carlo's highest percentile ``p`` has fewer than one sample beyond it (``samples (1 -
+    p / 100) < 1``): it is then the largest sample or an interpolation between the largest two, not the percentile."""
+    top = max(percentiles, default=0.0)
+    need = math.ceil(100.0 / (100.0 - top) - 1e-9) if top < 100.0 else None
+    if need is None or samples >= need:
+        return ()
+    many = samples != 1
+    return (f'{samples} Monte Carlo sample{"s leave" if many else " leaves"} none beyond {"their" if many else "its"} '
+            f'p{top:g} (it is {"their largest or between their largest two" if many else "that sample"}); at least '
+            f'{need} resolve it',)
 
 
 def _warnings(labels: tuple[str, ...], rss: dict[str, Array], mc_rms: dict[str, Array], worst: dict[str, Array],
