@@ -523,14 +523,15 @@ def test_a_program_whose_wafer_slips_is_not_written_or_sent_as_a_trajectory(caps
     program = _variant(tmp_path, ('friction: 0.3', 'friction: 0.1'))
     status, out, _ = run(capsys, 'program', 'check', str(program), '--no-progress')
     assert status == 1 and ('  UNSAFE: the wafer slips on the blade (ratio 2.259 >= 1) at 54.683 s, steps[14] (place '
-                            "load_port_1, approach); the ratio is lowered by a longer 'time' on that step, lower "
-                            "acceleration limits of the arm's joints or blades of more friction"
-                            ) in out.splitlines(), out
+                            "load_port_1, approach); the ratio is lowered by lower acceleration limits of the arm's "
+                            "joints or blades of more friction (a longer 'time' on a move lowers its cruise speed, not "
+                            "its accelerations; a straight entry takes none)") in out.splitlines(), out
     status, out, err = run(capsys, 'program', 'export', str(program), '--samples', str(tmp_path / 's.csv'))
     assert (status, out) == (1, '') and not (tmp_path / 's.csv').exists()   # the table alone: exit 0 before
     why = ('the program itself is not safe: the wafer slips on the blade (ratio 2.259 >= 1) at 54.683 s, steps[14] '
-           "(place load_port_1, approach); the ratio is lowered by a longer 'time' on that step, lower acceleration "
-           "limits of the arm's joints or blades of more friction (no --rate helps); allowed: a program gpr program "
+           "(place load_port_1, approach); the ratio is lowered by lower acceleration limits of the arm's joints or "
+           "blades of more friction (a longer 'time' on a move lowers its cruise speed, not its accelerations; a "
+           "straight entry takes none) (no --rate helps); allowed: a program gpr program "
            'check finds safe (it names every pair and move)\n')
     status, out, err = run(capsys, 'program', 'export', str(program), '--waypoints', str(tmp_path / 'w.csv'),
                            '--samples', str(tmp_path / 's.csv'), '--trajectory', str(tmp_path / 't.yaml'))

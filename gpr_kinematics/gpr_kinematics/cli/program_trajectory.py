@@ -25,8 +25,8 @@ if TYPE_CHECKING:
     from ..safety.clearance import ClearanceReport, PairClearance
 
 #: What lowers a carried wafer's slip ratio (``gpr program check``'s and the refusals' hint).
-SLIP_HELPS = ("the ratio is lowered by a longer 'time' on that step, lower acceleration limits of the arm's joints "
-              'or blades of more friction')
+SLIP_HELPS = ("the ratio is lowered by lower acceleration limits of the arm's joints or blades of more friction (a "
+              "longer 'time' on a move lowers its cruise speed, not its accelerations; a straight entry takes none)")
 
 #: The rate [Hz] at which a trajectory is checked as robot_simulator_node checks a goal (its default ``rate``).
 CONTROLLER_RATE = 100.0
