@@ -72,6 +72,9 @@ def test_the_plan_view_of_the_example_is_the_sampled_plan_and_the_cell():
     arms = np.asarray(s.arm)
     carried = wafer_plan(plan).carried
     assert sorted(a for a, *_ in view.paths) == sorted(set(s.arm))
+    # in the robot's order (an arm's colour is its place among the robot's arms, whichever a program moves first)
+    assert view.arms == tuple(a.name for a in plan.robot.arms)
+    assert [a for a, *_ in view.paths] == [a for a in view.arms if a in set(s.arm)]
     for arm, xy, t, held in view.paths:
         assert np.array_equal(xy, s.wafer.position[arms == arm, :2]) and np.array_equal(t, s.samples.time[arms == arm])
         inside = np.array([any(a <= x <= b for a, b in carried[arm]) for x in t])
@@ -106,7 +109,10 @@ def test_the_figure_draws_the_plan_view_and_marks_the_closest_pair():
         assert [t.get_text() for t in ax3.texts if t.get_color() == 'r'] == ['pm1/front_bottom']
         arm_path = dict((a, (xy, t)) for a, xy, t, _ in view.paths)['arm2']
         marks = {line.get_marker(): line for line in ax3.lines if line.get_marker() in ('v', 'x')}
-        assert marks['v'].get_label().startswith("arm2's wafer centre") and marks['v'].get_markeredgecolor() == 'C0'
+        # arm2's colour: the robot's second arm's (C1), though the program moves it first (it took C0 then)
+        assert marks['v'].get_label().startswith("arm2's wafer centre") and marks['v'].get_markeredgecolor() == 'C1'
+        paths = ('arm2:', 'arm2 carrying')
+        assert {line.get_color() for line in ax3.lines if line.get_label().startswith(paths)} == {'C1'}
         for marker, at in (('v', clear.pairs[0].time), ('x', report.collisions[0].time)):
             k = int(np.argmin(np.abs(arm_path[1] - at)))
             assert np.array_equal(np.column_stack([marks[marker].get_xdata(), marks[marker].get_ydata()])[0],

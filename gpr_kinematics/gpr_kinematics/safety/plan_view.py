@@ -36,13 +36,15 @@ RIM = 48
 class PlanView:
     """``outlines``: per obstacle (then per station wafer) its name and the counter-clockwise polygon ``(K, 2)`` [m] of
     its outline from above; ``paths``: per arm its name, the wafer centre ``(N, 2)`` [m] at the samples it is in use
-    (``time (N,)`` [s]) and whether it carries a wafer there ``(N,)``; ``stations``: the program's names and
-    positions ``(S, 2)`` [m]."""
+    (``time (N,)`` [s]) and whether it carries a wafer there ``(N,)``, in the robot's order of its arms; ``stations``:
+    the program's names and positions ``(S, 2)`` [m]; ``arms``: the robot's arm names, used or not (an arm's colour
+    is its place there, the same in every program of the robot)."""
 
     outlines: tuple[tuple[str, Array], ...]
     paths: tuple[tuple[str, Array, Array, NDArray[np.bool_]], ...]
     station_names: tuple[str, ...]
     stations: Array
+    arms: tuple[str, ...] = ()
 
 
 def corners(ob: Obstacle | Body) -> Array:
@@ -76,7 +78,8 @@ def plan_view(plan: ProgramPlan, cell: Cell | None) -> PlanView:
     wafers = wafer_plan(plan)
     carried = wafers.carried
     paths = []
-    for arm in dict.fromkeys(s.arm):
+    names = tuple(a.name for a in plan.robot.arms)
+    for arm in (a for a in names if a in set(s.arm)):
         used = arms == arm
         times = t[used]
         held = np.zeros(times.shape, dtype=bool)
@@ -86,4 +89,4 @@ def plan_view(plan: ProgramPlan, cell: Cell | None) -> PlanView:
     fixed = [b for b in program_bodies(plan, cell, wafers)[0] if b.frame is None]   # the cell's, the station wafers
     st = plan.program.stations.stations
     return PlanView(tuple((b.name, outline(b)) for b in fixed), tuple(paths), st.names,
-                    np.asarray(st.position[:, :2], dtype=float))
+                    np.asarray(st.position[:, :2], dtype=float), names)

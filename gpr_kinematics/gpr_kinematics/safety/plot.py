@@ -132,8 +132,8 @@ def draw_plan_view(ax: Axes, view: PlanView, clear: ClearanceReport, report: Saf
         if near:
             ax.annotate(name, (float(poly[:, 0].mean()) * 1e3, float(poly[:, 1].min()) * 1e3), xytext=(0, -3),
                         textcoords='offset points', fontsize=7, color='r', ha='center', va='top', zorder=4)
-    for k, (arm, xy, _, held) in enumerate(view.paths):
-        color = f'C{k}'
+    for arm, xy, _, held in view.paths:
+        color = _arm_colour(view, arm)
         ax.plot(*(xy * 1e3).T, color=color, lw=0.6, alpha=0.8, zorder=2, label=f'{arm}: its wafer centre (empty blade)')
         ax.plot(*(np.where(held[:, None], xy, np.nan) * 1e3).T, color=color, lw=2.0, alpha=0.6, zorder=2,
                 label=f'{arm} carrying a wafer')
@@ -169,8 +169,9 @@ def _where_arm(view: PlanView, bodies: tuple[str, str], time: float) -> tuple[st
 
 
 def _arm_colour(view: PlanView, arm: str) -> str:
-    """The colour of ``arm``'s path (:func:`draw_plan_view`)."""
-    return f'C{[a for a, *_ in view.paths].index(arm)}'
+    """The colour of ``arm``'s path (:func:`draw_plan_view`): by its place among the robot's arms, so that an arm
+    keeps its colour whichever arm a program moves first (it took the colour of its first use)."""
+    return f'C{(view.arms or tuple(a for a, *_ in view.paths)).index(arm)}'
 
 
 #: A waypoint where a pick or place holds at its station (:attr:`~.check.MoveSafety.label`).
