@@ -912,6 +912,7 @@ def test_metres_typed_under_mm_are_hinted_where_no_arm_reaches_the_station(capsy
     assert (status, out, err.count('\n')) == (2, '', 1)
     assert err.endswith(' (metres typed under --mm? --position (1.4, 0.5, 0.7) mm ((0.0014, 0.0005, 0.0007) m) lies '
                         "within 10 mm of the world's origin)\n"), err
+    assert err.count('metres given as millimetres') + err.count('metres typed under --mm') == 1, err   # one hint
     status, out, err = run(capsys, 'robot', 'ik', '--position', '1400', '500', '5000', '--tilt', '1', '--heading', '0',
                            '--arm', 'arm2', '--mm', '--deg')
     assert status == 2 and 'metres typed' not in err, err
