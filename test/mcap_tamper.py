@@ -32,7 +32,8 @@ MessageEdit = Callable[[str, int, bytes], 'bytes | None']
 def _rewrite_mcap(src: Path, dst: Path, message: MessageEdit | None, schema: Callable[[str, str], str] | None,
                   seen: dict[str, int], encoding: Callable[[str, str], str] | None = None,
                   channel: Callable[[str, dict[str, str]], dict[str, str]] | None = None,
-                  twin: str | None = None) -> None:
+                  twin: str | None = None,
+                  records: Callable[[str, dict[str, str]], dict[str, str] | None] | None = None) -> None:
     with open(src, 'rb') as fh:
         reader = make_reader(fh)
         header = reader.get_header()
@@ -70,8 +71,10 @@ def _rewrite_mcap(src: Path, dst: Path, message: MessageEdit | None, schema: Cal
                 data = message(channel.topic, i, msg.data) if message else msg.data
                 if data is not None:
                     writer.add_message(channel_ids[channel.id], msg.log_time, data, msg.publish_time, msg.sequence)
-            for m in metadata:
-                writer.add_metadata(m.name, dict(m.metadata))
+            for m in metadata:   # ``records``: each metadata record edited, or left out where it gives None
+                kept = records(m.name, dict(m.metadata)) if records else dict(m.metadata)
+                if kept is not None:
+                    writer.add_metadata(m.name, kept)
             writer.finish()
 
 
@@ -126,7 +129,8 @@ def resign(folder: Path, edit: Callable[[dict[str, Any]], None] | None = None) -
 def tampered(src: Path, dst: Path, message: MessageEdit | None = None, schema: Callable[[str, str], str] | None = None,
              metadata: Callable[[dict[str, Any]], None] | None = None,
              encoding: Callable[[str, str], str] | None = None,
-             channel: Callable[[str, dict[str, str]], dict[str, str]] | None = None, twin: str | None = None) -> Path:
+             channel: Callable[[str, dict[str, str]], dict[str, str]] | None = None, twin: str | None = None,
+             records: Callable[[str, dict[str, str]], dict[str, str] | None] | None = None) -> Path:
     """A copy of the bag folder ``src`` at ``dst``, its MCAP files written again by the ``mcap`` library with the
     edits, its metadata recounted and re-signed (module docstring). ``twin``: a topic whose messages go to a channel
     of the ``schema`` and ``channel`` edits (no other channel is edited), followed by an empty second channel of
@@ -134,7 +138,7 @@ def tampered(src: Path, dst: Path, message: MessageEdit | None = None, schema: C
     shutil.copytree(src, dst)
     seen: dict[str, int] = {}
     for f in sorted(dst.glob('*.mcap')):
-        _rewrite_mcap(src / f.name, f, message, schema, seen, encoding, channel, twin)
+        _rewrite_mcap(src / f.name, f, message, schema, seen, encoding, channel, twin, records)
     resign(dst, metadata)
     return dst
 

@@ -770,3 +770,22 @@ def test_a_log_time_beyond_int64_in_a_file_is_a_bag_error(tmp_path: Path, capsys
     status = cli.main(['verify', str(path)])
     out, err = capsys.readouterr()
     assert (status, out) == (2, '') and err.count('\n') == 1 and 'log time of 9223372036854775808 ns' in err
+
+
+def test_an_sqlite_databases_own_metadata_states_the_metadatas_ros_distribution(tmp_path: Path, src: Path) -> None:
+    """Each row of the database's own metadata that names a ROS distribution (rosbag2's rows do; the ``rosbags``
+    writer's name the library, ``rosbags``) names metadata.yaml's: another, re-signed, passed (``ros_distro`` was
+    left out)."""
+    from mcap_tamper import resign
+
+    msgs = messages_of(src)
+    types = {t.name: t.msgtype for t in read_bag(src).topics.values()}
+    for distro, fails in (('jazzy', []), ('humble', [
+            ('bag.metadata', "humble_0.db3's own metadata (its metadata table, row 1): ros_distro: it says 'humble', "
+                             "metadata.yaml says 'jazzy'")])):
+        bag = write_bag(tmp_path / distro, msgs, types, storage='sqlite3')
+        (db,) = bag.glob('*.db3')
+        _own_metadata(db, lambda got, d=distro: [(v, text.replace('ros_distro: rosbags', f'ros_distro: {d}'))
+                                                 for v, text in got])
+        resign(bag)
+        assert [(f.check, f.detail) for f in verify_bag(bag).failures] == fails, distro

@@ -416,6 +416,42 @@ def test_metadata_and_embedded_definitions_edited_fail(sweep: Path, tmp_path: Pa
     assert [(f.check, f.detail) for f in result.failures] == fails
 
 
+def _distro(value: str) -> Any:
+    return lambda name, meta: {**meta, 'ROS_DISTRO': value} if name == 'rosbag2' else meta
+
+
+def _serialized(text: str) -> Any:   # rosbag2's MCAP plugin since it stores the bag's metadata in the file
+    return lambda name, meta: {'serialized_metadata': text} if name == 'rosbag2' else meta
+
+
+RECORD = "ros_distro (rosbag2 metadata record 1 {} in sweep_0.mcap): metadata.yaml says '{}', the files hold '{}'"
+
+
+@pytest.mark.parametrize('name, edits, fails', [
+    # metadata.yaml's distribution re-signed, the file's record kept (it passed)
+    ('metadata', {'metadata': lambda info: info.__setitem__('ros_distro', 'humble')},
+     [('bag.metadata', RECORD.format('ROS_DISTRO', 'humble', 'jazzy'))]),
+    # the record's, metadata.yaml's kept (it passed: the record was never read)
+    ('record', {'records': _distro('humble')}, [('bag.metadata', RECORD.format('ROS_DISTRO', 'jazzy', 'humble'))]),
+    # a record of the bag's metadata YAML, as rosbag2 writes it now
+    ('serialized', {'records': _serialized('rosbag2_bagfile_information: {version: 9, ros_distro: humble}\n')},
+     [('bag.metadata', RECORD.format('serialized_metadata ros_distro', 'jazzy', 'humble'))]),
+    ('not_yaml', {'records': _serialized('rosbag2_bagfile_information: [')},
+     [('bag.metadata', 'rosbag2 metadata record 1 serialized_metadata: not YAML')]),
+    # agreeing, or no record (a file a crash cut off before its end has none; older rosbag2 wrote none): no failure
+    ('agrees', {'records': _serialized('rosbag2_bagfile_information: {version: 9, ros_distro: jazzy}\n')}, []),
+    ('none', {'records': lambda name, meta: None if name == 'rosbag2' else meta}, [])])
+def test_the_ros_distribution_of_the_files_is_the_metadatas(sweep: Path, tmp_path: Path, name: str,
+                                                            edits: dict[str, Any], fails: list[tuple[str, str]]
+                                                            ) -> None:
+    """metadata.yaml's ``ros_distro`` against the one each MCAP file's ``rosbag2`` metadata records state (its
+    ``ROS_DISTRO``, or the ``ros_distro`` of its ``serialized_metadata``): an edit of either side, re-signed, passed."""
+    result = verify_bag(tampered(sweep, tmp_path / name, **edits))
+    got = [(f.check, f.detail) for f in result.failures]
+    assert len(got) == len(fails) and all(c == want_c and d.startswith(want_d)
+                                          for (c, d), (want_c, want_d) in zip(got, fails, strict=True)), got
+
+
 def _unsigned(src: Path, dst: Path, edit: Any) -> Path:
     """A copy whose metadata.yaml is rewritten with ``edit`` and no digest of its own (another recorder's)."""
     import shutil

@@ -57,6 +57,18 @@ def _topic_problems(bag: Bag, problems: list[Problem]) -> None:
                              qos_data(f.qos[t.name], t.name))
 
 
+def _distro_problems(bag: Bag, problems: list[Problem]) -> None:
+    """The ROS distribution each MCAP file's ``rosbag2`` records state against ``metadata.yaml``'s (a file whose
+    record a crash cut off states none; a bag whose metadata names none is older than the field)."""
+    assert bag.metadata is not None  # callers check
+    for f in bag.storage_files:
+        for where, distro in f.distros:
+            if distro is None:
+                problems.append((f.name, 1.0, 0.0, f'{where} in {f.name}'))
+            elif bag.metadata.ros_distro:
+                _differs(problems, f.name, f'ros_distro ({where} in {f.name})', bag.metadata.ros_distro, distro)
+
+
 def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
     meta = bag.metadata
     assert meta is not None  # callers check
@@ -92,6 +104,7 @@ def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
     for f in bag.storage_files:
         for name in sorted(set(f.types) - listed):
             problems.append((name, 1.0, 0.0, f'in {f.name} but not in metadata.yaml'))
+    _distro_problems(bag, problems)
     embedded, rows = embedded_problems(bag.storage_files, meta)
     return problems + embedded, 5 + 3 * len(meta.files) + 3 * len(meta.topics) + rows
 

@@ -30,6 +30,10 @@ from .storage_file import StorageFile
 
 Problem = tuple[str, float, float, str]
 
+#: The ``ros_distro`` the ``rosbags`` writer stores in a database's own metadata (its name, not a distribution: this
+#: package's recorder writes its SQLite3 segments with it), compared with nothing.
+ROSBAGS_DISTRO = 'rosbags'
+
 
 def qos_data(value: object, topic: str) -> object:
     """``offered_qos_profiles`` as data: YAML text (a file's, or metadata before version 9) read by the package's
@@ -187,6 +191,8 @@ def embedded_problems(files: list[StorageFile], meta: Metadata | None) -> tuple[
             row.differs('metadata_version', version, 'its version', info.get('version'))
             if meta is not None:
                 row.differs('version', info.get('version'), 'metadata.yaml says', meta.version)
+                if meta.ros_distro and info.get('ros_distro') not in (None, ROSBAGS_DISTRO):   # older rows: none
+                    row.differs('ros_distro', info.get('ros_distro'), 'metadata.yaml says', meta.ros_distro)
             row.differs('storage_identifier', info.get('storage_identifier', 'sqlite3'), 'the file is', 'sqlite3')
             listed = _files_listed(row, info, meta, index, read)
             complete = _topics(row, info, meta, listed)

@@ -91,6 +91,8 @@ class McapFile:
     data: dict[int, list[bytes]] = field(default_factory=dict)
     counts: dict[int, int] = field(default_factory=dict)
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: Every ``rosbag2`` metadata record, in file order (rosbag2 writes one per update of the bag's metadata).
+    rosbag2: list[dict[str, str]] = field(default_factory=list)
     start: int | None = None
     end: int | None = None
     chunks: int = 0
@@ -334,6 +336,8 @@ class _Walker:
             r = Fields(body)
             name = r.string('metadata name')
             self.out.metadata[name] = dict(r.string_map('metadata'))
+            if name == 'rosbag2':
+                self.out.rosbag2.append(self.out.metadata[name])
         elif op in (OP_STATISTICS, OP_SUMMARY_OFFSET, OP_CHUNK_INDEX):
             return self.summary_record(op, body, in_summary)
         return None  # attachments: covered by the CRCs and the walk itself

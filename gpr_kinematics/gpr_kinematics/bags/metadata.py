@@ -24,7 +24,7 @@ from typing import Any, Final, Literal
 
 import yaml
 
-from ..errors import PATH_LENGTH, ConfigError, brief, kind_of
+from ..errors import PATH_LENGTH, ConfigError, GprError, brief, kind_of
 from ..inputs import safe_yaml
 from .errors import BagError
 from .fileio import read_bounded, require_regular, status_of
@@ -92,6 +92,8 @@ class Metadata:
     computed_digest: str
     digest_lines: int
     digest_line: bytes
+    #: The ROS distribution the recorder says it ran on ('' where the metadata names none).
+    ros_distro: str = ''
 
 
 class _Schema:
@@ -223,7 +225,7 @@ def read_metadata(folder: Path) -> Metadata:
                     relative_file_paths=tuple(paths), files=files, topics=tuple(topics),
                     compression_format=top.text('compression_format', ''),
                     compression_mode=top.text('compression_mode', ''), custom_data=dict(custom), info=info,
-                    computed_digest=digest, digest_lines=lines, digest_line=line)
+                    computed_digest=digest, digest_lines=lines, digest_line=line, ros_distro=distro)
 
 
 #: The one entry of each per-file list that :func:`render_metadata` replaces by the files' rendered lines.
@@ -266,3 +268,28 @@ def render_metadata(info: dict[str, Any], files: Sequence[tuple[bytes, bytes, by
     if lines != 1 or not line.startswith(_INDENT.encode() + METADATA_DIGEST_KEY.encode()):
         raise BagError(f'metadata: the {METADATA_DIGEST_KEY} line came out as {line!r} ({lines} such lines)')
     return text.replace(line, digest_line(digest), 1)
+
+
+def record_distros(records: Sequence[Mapping[str, str]], source: str) -> tuple[tuple[str, str | None], ...]:
+    """The ROS distribution each of an MCAP file's ``rosbag2`` metadata records states, with where: its
+    ``ROS_DISTRO`` (rosbag2's MCAP plugin until it stored the bag's metadata there), the ``ros_distro`` of its
+    ``serialized_metadata`` (the metadata YAML, read by the package's bounded reader; None where it is no such
+    YAML, the reason given with it). A record of neither states none."""
+    out: list[tuple[str, str | None]] = []
+    for k, rec in enumerate(records):
+        where = f'rosbag2 metadata record {k + 1}'
+        if 'ROS_DISTRO' in rec:
+            out.append((f'{where} ROS_DISTRO', rec['ROS_DISTRO']))
+        if 'serialized_metadata' in rec:
+            try:
+                data = safe_yaml.load_text(rec['serialized_metadata'], f'{source} {where}',
+                                           max_nodes=MAX_METADATA_NODES, max_chars=MAX_METADATA_BYTES)
+            except GprError as exc:
+                out.append((f'{where} serialized_metadata: not YAML ({brief(str(exc), 120)})', None))
+                continue
+            info = data.get('rosbag2_bagfile_information', data) if isinstance(data, Mapping) else None
+            if not isinstance(info, Mapping):
+                out.append((f'{where} serialized_metadata: {brief(data, 60)}, not a mapping', None))
+            elif 'ros_distro' in info:
+                out.append((f'{where} serialized_metadata ros_distro', str(info['ros_distro'])))
+    return tuple(out)

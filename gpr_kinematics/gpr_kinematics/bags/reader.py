@@ -33,7 +33,7 @@ from .cdr import Columns, decode_columns
 from .errors import BagError
 from .fileio import require_regular, shown, status_of
 from .mcap_file import McapChannel, read_mcap
-from .metadata import INT_END, Metadata, read_metadata
+from .metadata import INT_END, Metadata, read_metadata, record_distros
 from .sqlite_file import read_sqlite
 from .storage_file import Contents, StorageFile
 from .typestore import (
@@ -244,7 +244,8 @@ def _read_mcap_file(path: Path, topics: set[str] | None, inflated: int = 0, mess
             times.setdefault(ch.topic, []).extend(m.times[cid])
             data.setdefault(ch.topic, []).extend(m.data[cid])
     info = StorageFile(path.name, m.size, m.sha256, counts, types, digests, m.start, m.end, m.chunks,
-                       m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats, qos)
+                       m.chunks_with_crc, m.data_crc, m.summary_crc, schemas, formats, qos,
+                       distros=record_distros(m.rosbag2, str(path)))
     return Contents(info, times, data, m.inflated, m.messages)
 
 

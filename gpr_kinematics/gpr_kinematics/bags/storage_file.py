@@ -32,6 +32,9 @@ class StorageFile:
     #: SQLite3: the rows of the database's own ``metadata`` table (rosbag2's sqlite3 plugin stores the bag's metadata
     #: there as YAML): (row id, ``metadata_version``, text), in row order.
     embedded: tuple[tuple[int, object, str], ...] = ()
+    #: MCAP: the ROS distribution each ``rosbag2`` metadata record states, with where (its ``ROS_DISTRO``, or
+    #: ``ros_distro`` in its ``serialized_metadata``; None: that YAML unreadable, the reason in ``where``).
+    distros: tuple[tuple[str, str | None], ...] = ()
 
     @property
     def message_count(self) -> int:
