@@ -152,3 +152,30 @@ def test_an_obstacle_named_like_an_arms_body_is_not_taken_for_the_arm():
     arm, at = _where_arm(view, ('arm1_link2', 'arm2_rack'), 0.9)
     assert arm == 'arm1' and at.tolist() == [3.0, 4.0]
     assert _where_arm(view, ('gpr_base', 'arm2_rack'), 0.5) == ('', None)
+
+
+def test_an_arm_that_stays_where_it_starts_draws_no_path_and_no_legend_entry(tmp_path):
+    """A program whose first step puts arm2 at its first waypoint and never moves it: arm2's path is that one sample,
+    which drew nothing but two legend entries (its empty blade, carrying a wafer); arm1 keeps its colour (C0)."""
+    import matplotlib.pyplot as plt
+    from gpr_kinematics.safety.check import check_program
+    from gpr_kinematics.safety.plot import check_figure
+    program = tmp_path / 'stays.yaml'
+    program.write_text(f'format: gpr_robot_program\nversion: 1\nrobot: {config_path("robots/example_robot.yaml")}\n'
+                       'units: {length: mm, angle: deg}\ndefaults: {arm: arm1}\nstations:\n'
+                       '  - {name: a, position: [750, 800, 420], heading: 90}\n'
+                       '  - {name: b, position: [750, 850, 300], heading: 90}\n'
+                       'steps:\n  - {move: a, arm: arm2, branch: right}\n  - {move: a}\n  - {move: b}\n')
+    plan = plan_program(load_robot(), load_program(program))
+    view = plan_view(plan, None)
+    sizes = {a: len(xy) for a, xy, _, _ in view.paths}
+    assert sizes['arm2'] == 1 and sizes['arm1'] > 1, sizes
+    report, clear, slip = check_program(plan, None)
+    fig = check_figure(clear, slip, report, program, view)
+    try:
+        labels = [line.get_label() for line in fig.axes[2].lines]
+        assert not [x for x in labels if x.startswith('arm2')] and 'arm1: its wafer centre (empty blade)' in labels
+        paths = ('arm1:', 'arm1 carrying')
+        assert {line.get_color() for line in fig.axes[2].lines if line.get_label().startswith(paths)} == {'C0'}
+    finally:
+        plt.close(fig)

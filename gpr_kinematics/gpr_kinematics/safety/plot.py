@@ -133,6 +133,8 @@ def draw_plan_view(ax: Axes, view: PlanView, clear: ClearanceReport, report: Saf
             ax.annotate(name, (float(poly[:, 0].mean()) * 1e3, float(poly[:, 1].min()) * 1e3), xytext=(0, -3),
                         textcoords='offset points', fontsize=7, color='r', ha='center', va='top', zorder=4)
     for arm, xy, _, held in view.paths:
+        if len(xy) < 2:   # an arm only ever where it starts: no path (its one point drew nothing but a legend entry)
+            continue
         color = _arm_colour(view, arm)
         ax.plot(*(xy * 1e3).T, color=color, lw=0.6, alpha=0.8, zorder=2, label=f'{arm}: its wafer centre (empty blade)')
         ax.plot(*(np.where(held[:, None], xy, np.nan) * 1e3).T, color=color, lw=2.0, alpha=0.6, zorder=2,
