@@ -148,7 +148,7 @@ def test_an_obstacle_named_like_an_arms_body_is_not_taken_for_the_arm():
     view = PlanView(outlines=(('arm2_rack', np.zeros((4, 2))),),
                     paths=(('arm1', np.array([[1.0, 2.0], [3.0, 4.0]]), np.array([0.0, 1.0]), np.array([False, True])),
                            ('arm2', np.array([[5.0, 6.0]]), np.array([0.5]), np.array([False]))),
-                    station_names=(), stations=np.zeros((0, 2)))
+                    station_names=(), stations=np.zeros((0, 2)), arms=('arm1', 'arm2'))
     arm, at = _where_arm(view, ('arm1_link2', 'arm2_rack'), 0.9)
     assert arm == 'arm1' and at.tolist() == [3.0, 4.0]
     assert _where_arm(view, ('gpr_base', 'arm2_rack'), 0.5) == ('', None)

@@ -44,7 +44,7 @@ class PlanView:
     paths: tuple[tuple[str, Array, Array, NDArray[np.bool_]], ...]
     station_names: tuple[str, ...]
     stations: Array
-    arms: tuple[str, ...] = ()
+    arms: tuple[str, ...]
 
 
 def corners(ob: Obstacle | Body) -> Array:
@@ -78,8 +78,8 @@ def plan_view(plan: ProgramPlan, cell: Cell | None) -> PlanView:
     wafers = wafer_plan(plan)
     carried = wafers.carried
     paths = []
-    names = tuple(a.name for a in plan.robot.arms)
-    for arm in (a for a in names if a in set(s.arm)):
+    names, used_arms = tuple(a.name for a in plan.robot.arms), set(s.arm)
+    for arm in (a for a in names if a in used_arms):
         used = arms == arm
         times = t[used]
         held = np.zeros(times.shape, dtype=bool)

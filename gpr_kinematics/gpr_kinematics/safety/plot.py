@@ -173,7 +173,7 @@ def _where_arm(view: PlanView, bodies: tuple[str, str], time: float) -> tuple[st
 def _arm_colour(view: PlanView, arm: str) -> str:
     """The colour of ``arm``'s path (:func:`draw_plan_view`): by its place among the robot's arms, so that an arm
     keeps its colour whichever arm a program moves first (it took the colour of its first use)."""
-    return f'C{(view.arms or tuple(a for a, *_ in view.paths)).index(arm)}'
+    return f'C{view.arms.index(arm)}'
 
 
 #: A waypoint where a pick or place holds at its station (:attr:`~.check.MoveSafety.label`).
