@@ -111,11 +111,11 @@ def _cmd_ik(args: argparse.Namespace) -> int:
     except GprError as exc:   # metres typed under --mm: a station within 10 mm of the world's origin, out of reach
         if not (args.mm and max(abs(v) for v in args.position) < MM_AS_METRES):
             raise
-        import re
+        from ..robot.fields import without_origin_hint
         point = typed_point(args, args.position, [v / 1000.0 for v in args.position])
-        said = re.sub(r"; the station lies [^;]* from the world's origin: metres given as millimetres\?$", '', str(exc))
+        said = without_origin_hint(str(exc))   # one hint: the core's (for a station file) said the same
         raise type(exc)(f'{said} (metres typed under --mm? --position {point} lies within {MM_AS_METRES:g} mm of '
-                        'the world\'s origin)') from None   # one hint: the core's for a file said the same
+                        'the world\'s origin)') from None
     if args.json:
         emit_json(sol.record(0))
         return 0

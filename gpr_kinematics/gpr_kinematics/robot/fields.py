@@ -148,6 +148,15 @@ def check_names(rods: Sequence[str], joints: Sequence[str], arms: Sequence[str],
 #: A station this close to the world's origin [m] that no arm reaches: metres given as millimetres (a station file
 #: in mm with metres in it put pm4 at (0.45, 0.5, 0.65) mm; blamed on the heights alone).
 NEAR_THE_ORIGIN = 0.01
+#: The end of :func:`unit_hint`'s hint to a station near the origin, and the pattern of the whole hint at the end of a
+#: message (a command that says it its own way takes it off: :func:`without_origin_hint`).
+METRES_AS_MM = ': metres given as millimetres?'
+_ORIGIN_HINT = re.compile(r"; the station lies [^;]* mm from the world's origin" + re.escape(METRES_AS_MM) + '$')
+
+
+def without_origin_hint(message: str) -> str:
+    """``message`` without :func:`unit_hint`'s hint of metres given as millimetres at its end."""
+    return _ORIGIN_HINT.sub('', message)
 
 
 def unit_hint(from_base: float, from_origin: float) -> str:
@@ -158,7 +167,6 @@ def unit_hint(from_base: float, from_origin: float) -> str:
         return (f'; the station lies {from_base:.4g} m from gpr_base, {from_base / 1000.0:.4g} m as millimetres: '
                 'millimetres given as metres?')
     if from_origin < NEAR_THE_ORIGIN:
-        return (f'; the station lies {from_origin * 1000.0:.4g} mm from the world\'s origin: metres given as '
-                'millimetres?')
+        return f'; the station lies {from_origin * 1000.0:.4g} mm from the world\'s origin{METRES_AS_MM}'
     return ''
 
