@@ -65,8 +65,9 @@ def _distro_problems(bag: Bag, problems: list[Problem]) -> None:
         for where, distro in f.distros:
             if distro is None:
                 problems.append((f.name, 1.0, 0.0, f'{where} in {f.name}'))
-            elif bag.metadata.ros_distro:
-                _differs(problems, f.name, f'ros_distro ({where} in {f.name})', bag.metadata.ros_distro, distro)
+            elif bag.metadata.ros_distro != distro and bag.metadata.ros_distro:   # the record's value shown briefly
+                problems.append((f.name, 1.0, 0.0, f'ros_distro ({where} in {f.name}): metadata.yaml says '
+                                                   f'{bag.metadata.ros_distro!r}, the files hold {brief(distro, 64)}'))
 
 
 def _metadata_problems(bag: Bag) -> tuple[list[Problem], int]:
